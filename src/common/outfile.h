@@ -1,0 +1,33 @@
+/* outfile.h - an output file that appears under its final name only when
+ * complete: written to "<dir>/.<name>.wpd-tmp-<pid>-XXXXXX", then renamed. */
+#ifndef WPD_OUTFILE_H
+#define WPD_OUTFILE_H
+
+#include "common/error.h"
+
+typedef struct wpd_outfile {
+    int fd;                  /* open for writing, -1 when closed */
+    char final_path[1024];
+    char temp_path[1100];
+} wpd_outfile;
+
+/* Creates the temporary file beside path. Fails (WPD_E_IO) when path exists
+ * and overwrite is 0, or the directory is not writable. Returns 0 or -1. */
+int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error *err);
+
+/* Writes all len bytes at the current position. Returns 0, or -1 with err set
+ * naming the output (disk full reported as such). */
+int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *err);
+
+/* Writes all len bytes at absolute offset off (does not move the position). */
+int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long off,
+                       wpd_error *err);
+
+/* Flushes to disk, closes and renames over the final path. On failure the
+ * temporary file is removed. Returns 0 or -1. */
+int wpd_outfile_commit(wpd_outfile *f, wpd_error *err);
+
+/* Closes and removes the temporary file. Safe to call twice. */
+void wpd_outfile_abort(wpd_outfile *f);
+
+#endif

@@ -1,0 +1,57 @@
+/* format.h - internal plug-in interface between the generic reader/writer
+ * (reader.c, writer.c) and one file per format (ply_*.c, las_*.c).
+ * Not for use outside src/io. */
+#ifndef WPD_FORMAT_H
+#define WPD_FORMAT_H
+
+#include "common/outfile.h"
+#include "io/reader.h"
+#include "io/writer.h"
+
+typedef struct wpd_reader_ops {
+    /* Same contract as wpd_reader_read; r->dropped must be maintained. */
+    long (*read)(wpd_reader *r, wpd_batch *b, wpd_error *err);
+    /* NULL when the format cannot seek. Same contract as wpd_reader_seek. */
+    int (*seek)(wpd_reader *r, uint64_t index, wpd_error *err);
+    /* Frees r->impl (not the header, not the fd). */
+    void (*close)(wpd_reader *r);
+} wpd_reader_ops;
+
+struct wpd_reader {
+    const wpd_reader_ops *ops;
+    int fd;                 /* open read-only on hdr.path */
+    wpd_header hdr;
+    uint64_t dropped;
+    void *impl;             /* format state */
+};
+
+/* Parse the header from r->fd (positioned at 0; r->hdr.path and
+ * r->hdr.file_size are set), fill r->hdr, r->ops, r->impl. Return 0, or -1
+ * with err set; on failure nothing needs freeing beyond wpd_header_free. */
+int wpd_ply_open_reader(wpd_reader *r, wpd_error *err);
+int wpd_las_open_reader(wpd_reader *r, wpd_error *err);
+
+typedef struct wpd_writer_ops {
+    /* Same contract as wpd_writer_write; w->count must be maintained. */
+    int (*write)(wpd_writer *w, const wpd_batch *b, wpd_error *err);
+    /* Completes the file content (header patch, EVLRs); does not commit. */
+    int (*finish)(wpd_writer *w, wpd_error *err);
+    /* Frees w->impl. */
+    void (*close)(wpd_writer *w);
+} wpd_writer_ops;
+
+struct wpd_writer {
+    const wpd_writer_ops *ops;
+    wpd_outfile out;
+    wpd_header hdr;         /* deep copy of the caller's header */
+    wpd_write_options opt;
+    uint64_t count;
+    void *impl;
+};
+
+/* Write the file's prelude (header, VLRs) to w->out, set w->ops, w->impl.
+ * Return 0, or -1 with err set. */
+int wpd_ply_open_writer(wpd_writer *w, wpd_error *err);
+int wpd_las_open_writer(wpd_writer *w, wpd_error *err);
+
+#endif

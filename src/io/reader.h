@@ -1,0 +1,46 @@
+/* reader.h - streaming point readers, one interface for every format.
+ *
+ * A reader parses and validates the whole header when opened (nothing in the
+ * header is trusted: every count and offset is checked against the file
+ * size before anything is allocated or looped over), then streams points in
+ * batches. Files with fixed-size records (LAS, binary PLY) can be positioned
+ * at any point index, so several readers on one file can work in parallel.
+ */
+#ifndef WPD_READER_H
+#define WPD_READER_H
+
+#include "common/error.h"
+#include "io/batch.h"
+#include "io/schema.h"
+
+typedef struct wpd_reader wpd_reader;
+
+/* Opens path, recognises the format from its first bytes, parses the header.
+ * Returns a reader, or NULL with err set (code WPD_E_INPUT for a malformed or
+ * unsupported file, WPD_E_IO if it cannot be read). */
+wpd_reader *wpd_reader_open(const char *path, wpd_error *err);
+
+/* Header facts and record schema; valid until the reader is closed. */
+const wpd_header *wpd_reader_header(const wpd_reader *r);
+
+/* Fills b (whose record_size must equal the schema's) with up to b->cap
+ * points, replacing its contents. Points whose x, y or z is not finite are
+ * dropped and counted. Returns the number of points placed in b (0 only at
+ * the end of the points), or -1 with err set; a file shorter than its header
+ * promises is an error naming the file. */
+long wpd_reader_read(wpd_reader *r, wpd_batch *b, wpd_error *err);
+
+/* 1 if wpd_reader_seek works for this file (fixed-size records), else 0. */
+int wpd_reader_can_seek(const wpd_reader *r);
+
+/* Positions the reader so the next read starts at record index (0-based).
+ * Returns 0, or -1 with err set. */
+int wpd_reader_seek(wpd_reader *r, uint64_t index, wpd_error *err);
+
+/* Number of records dropped so far for non-finite coordinates. */
+uint64_t wpd_reader_dropped(const wpd_reader *r);
+
+/* Closes the file and frees everything. NULL is allowed. */
+void wpd_reader_close(wpd_reader *r);
+
+#endif
