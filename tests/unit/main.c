@@ -1,0 +1,88 @@
+/* main.c - runs every registered unit test; prints "N passed, N failed". */
+#define _GNU_SOURCE
+#include "harness.h"
+
+#include <ftw.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static test_case *registry_head;
+static char tmp_dir[256];
+
+void test_register(test_case *t)
+{
+    t->next = registry_head;
+    registry_head = t;
+}
+
+const char *test_data_dir(void)
+{
+    const char *dir = getenv("WPD_TEST_DATA");
+    if (!dir)
+        dir = "../shared/data";
+    struct stat st;
+    return stat(dir, &st) == 0 && S_ISDIR(st.st_mode) ? dir : NULL;
+}
+
+static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st; (void)flag; (void)ftw;
+    return remove(path);
+}
+
+static void remove_tmp_dir(void)
+{
+    if (tmp_dir[0])
+        nftw(tmp_dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+}
+
+const char *test_tmp_dir(void)
+{
+    if (!tmp_dir[0]) {
+        const char *base = getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp";
+        snprintf(tmp_dir, sizeof tmp_dir, "%s/wpd-unit-XXXXXX", base);
+        if (!mkdtemp(tmp_dir)) {
+            perror("mkdtemp");
+            exit(2);
+        }
+        atexit(remove_tmp_dir);
+    }
+    return tmp_dir;
+}
+
+/* Registration order is reversed by the linked list; run in source order. */
+static test_case *reverse(test_case *t)
+{
+    test_case *out = NULL;
+    while (t) {
+        test_case *next = t->next;
+        t->next = out;
+        out = t;
+        t = next;
+    }
+    return out;
+}
+
+int main(int argc, char **argv)
+{
+    const char *filter = argc > 1 ? argv[1] : NULL;
+    int passed = 0, failed = 0;
+    for (test_case *t = reverse(registry_head); t; t = t->next) {
+        if (filter && !strstr(t->name, filter))
+            continue;
+        int failures = 0;
+        t->fn(&failures);
+        if (failures) {
+            printf("FAIL %s\n", t->name);
+            failed++;
+        } else {
+            printf("ok   %s\n", t->name);
+            passed++;
+        }
+        fflush(stdout);
+    }
+    printf("%d passed, %d failed\n", passed, failed);
+    return failed ? 1 : 0;
+}
