@@ -1,0 +1,118 @@
+#include "common/outfile.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <libgen.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* "<dir>/.<base>.wpd-tmp-<pid>-XXXXXX": hidden, in the output's directory so
+ * the final rename never crosses file systems, and carrying the pid so a later
+ * run can tell a dead run's leftover from a live one's. */
+static int make_temp_name(wpd_outfile *f, const char *path)
+{
+    char dir_buf[1024], base_buf[1024];
+    snprintf(dir_buf, sizeof dir_buf, "%s", path);
+    snprintf(base_buf, sizeof base_buf, "%s", path);
+    int n = snprintf(f->temp_path, sizeof f->temp_path, "%s/.%s.wpd-tmp-%ld-XXXXXX",
+                     dirname(dir_buf), basename(base_buf), (long)getpid());
+    return n > 0 && (size_t)n < sizeof f->temp_path ? 0 : -1;
+}
+
+int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error *err)
+{
+    memset(f, 0, sizeof *f);
+    f->fd = -1;
+    if (strlen(path) >= sizeof f->final_path || make_temp_name(f, path))
+        return wpd_fail(err, WPD_E_USAGE, "%s: output path too long", path);
+    strcpy(f->final_path, path);
+    struct stat st;
+    if (!overwrite && stat(path, &st) == 0)
+        return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)", path);
+    f->fd = mkostemp(f->temp_path, O_CLOEXEC);
+    if (f->fd < 0) {
+        f->temp_path[0] = '\0';
+        return wpd_fail_errno(err, "%s: cannot create output", path);
+    }
+    /* mkostemp creates 0600; give the file the mode a plain creat() would. */
+    mode_t mask = umask(0);
+    umask(mask);
+    fchmod(f->fd, 0666 & ~mask);
+    return 0;
+}
+
+int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *err)
+{
+    const char *p = buf;
+    while (len) {
+        ssize_t w = write(f->fd, p, len);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            if (w == 0)
+                errno = ENOSPC;
+            return wpd_fail_errno(err, "%s: write failed", f->final_path);
+        }
+        p += w;
+        len -= (size_t)w;
+    }
+    return 0;
+}
+
+int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long off,
+                       wpd_error *err)
+{
+    const char *p = buf;
+    while (len) {
+        ssize_t w = pwrite(f->fd, p, len, (off_t)off);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            if (w == 0)
+                errno = ENOSPC;
+            return wpd_fail_errno(err, "%s: write failed", f->final_path);
+        }
+        p += w;
+        off += w;
+        len -= (size_t)w;
+    }
+    return 0;
+}
+
+int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
+{
+    /* fsync before rename: after a crash the final name must never point at
+     * a file whose data did not reach the disk. */
+    if (fsync(f->fd) != 0 && errno != EINVAL) {
+        wpd_fail_errno(err, "%s: cannot flush output", f->final_path);
+        wpd_outfile_abort(f);
+        return -1;
+    }
+    if (close(f->fd) != 0) {
+        f->fd = -1;
+        wpd_fail_errno(err, "%s: cannot close output", f->final_path);
+        wpd_outfile_abort(f);
+        return -1;
+    }
+    f->fd = -1;
+    if (rename(f->temp_path, f->final_path) != 0) {
+        wpd_fail_errno(err, "%s: cannot rename temporary output into place", f->final_path);
+        wpd_outfile_abort(f);
+        return -1;
+    }
+    f->temp_path[0] = '\0';
+    return 0;
+}
+
+void wpd_outfile_abort(wpd_outfile *f)
+{
+    if (f->fd >= 0)
+        close(f->fd);
+    f->fd = -1;
+    if (f->temp_path[0])
+        unlink(f->temp_path);
+    f->temp_path[0] = '\0';
+}

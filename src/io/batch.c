@@ -1,0 +1,25 @@
+#include "io/batch.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+int wpd_batch_init(wpd_batch *b, size_t cap, uint32_t record_size)
+{
+    memset(b, 0, sizeof *b);
+    b->records = malloc(cap * (record_size ? record_size : 1));
+    b->xyz = malloc(cap * 3 * sizeof *b->xyz);
+    if (!b->records || !b->xyz) {
+        wpd_batch_free(b);
+        return -1;
+    }
+    b->cap = cap;
+    b->record_size = record_size;
+    return 0;
+}
+
+void wpd_batch_free(wpd_batch *b)
+{
+    free(b->records);
+    free(b->xyz);
+    memset(b, 0, sizeof *b);
+}

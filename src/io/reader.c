@@ -1,0 +1,116 @@
+/* reader.c - format detection and dispatch to the per-format readers. */
+#include "io/format.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* Reads up to len bytes from the start of fd (without moving it for the
+ * format parser, which starts at offset 0). Returns bytes read or -1. */
+static ssize_t peek_magic(int fd, char *buf, size_t len)
+{
+    ssize_t n;
+    do
+        n = pread(fd, buf, len, 0);
+    while (n < 0 && errno == EINTR);
+    return n;
+}
+
+static int detect_format(wpd_reader *r, wpd_error *err)
+{
+    char magic[5] = {0};
+    ssize_t n = peek_magic(r->fd, magic, 4);
+    if (n < 0)
+        return wpd_fail_errno(err, "%s: cannot read", r->hdr.path);
+    if (n == 0)
+        return wpd_fail(err, WPD_E_INPUT, "%s: file is empty", r->hdr.path);
+    if (n == 4 && !memcmp(magic, "LASF", 4))
+        r->hdr.format = WPD_FMT_LAS;
+    else if (n >= 3 && !memcmp(magic, "ply", 3))
+        r->hdr.format = WPD_FMT_PLY;
+    else
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: not a LAS or PLY file (no 'LASF' or 'ply' signature)",
+                        r->hdr.path);
+    return 0;
+}
+
+wpd_reader *wpd_reader_open(const char *path, wpd_error *err)
+{
+    if (strlen(path) >= sizeof ((wpd_header *)0)->path) {
+        wpd_fail(err, WPD_E_USAGE, "%.200s...: path too long", path);
+        return NULL;
+    }
+    wpd_reader *r = calloc(1, sizeof *r);
+    if (!r) {
+        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", path);
+        return NULL;
+    }
+    strcpy(r->hdr.path, path);
+    r->fd = open(path, O_RDONLY | O_CLOEXEC);
+    struct stat st;
+    if (r->fd < 0 || fstat(r->fd, &st) != 0) {
+        wpd_fail_errno(err, "%s: cannot open", path);
+        goto fail;
+    }
+    if (S_ISDIR(st.st_mode)) {
+        wpd_fail(err, WPD_E_INPUT, "%s: is a directory", path);
+        goto fail;
+    }
+    r->hdr.file_size = (uint64_t)st.st_size;
+    if (detect_format(r, err))
+        goto fail;
+    int rc = r->hdr.format == WPD_FMT_LAS ? wpd_las_open_reader(r, err)
+                                          : wpd_ply_open_reader(r, err);
+    if (rc == 0)
+        return r;
+fail:
+    if (r->ops && r->ops->close)
+        r->ops->close(r);
+    if (r->fd >= 0)
+        close(r->fd);
+    wpd_header_free(&r->hdr);
+    free(r);
+    return NULL;
+}
+
+const wpd_header *wpd_reader_header(const wpd_reader *r) { return &r->hdr; }
+
+long wpd_reader_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
+{
+    if (b->record_size != r->hdr.schema.record_size)
+        return wpd_fail(err, WPD_E_USAGE, "%s: batch record size %u does not match %u",
+                        r->hdr.path, b->record_size, r->hdr.schema.record_size);
+    return r->ops->read(r, b, err);
+}
+
+int wpd_reader_can_seek(const wpd_reader *r) { return r->ops->seek != NULL; }
+
+int wpd_reader_seek(wpd_reader *r, uint64_t index, wpd_error *err)
+{
+    if (!r->ops->seek)
+        return wpd_fail(err, WPD_E_USAGE, "%s: this file cannot be read by point index",
+                        r->hdr.path);
+    if (index > r->hdr.point_count)
+        return wpd_fail(err, WPD_E_USAGE, "%s: point index %llu past the end (%llu points)",
+                        r->hdr.path, (unsigned long long)index,
+                        (unsigned long long)r->hdr.point_count);
+    return r->ops->seek(r, index, err);
+}
+
+uint64_t wpd_reader_dropped(const wpd_reader *r) { return r->dropped; }
+
+void wpd_reader_close(wpd_reader *r)
+{
+    if (!r)
+        return;
+    if (r->ops && r->ops->close)
+        r->ops->close(r);
+    if (r->fd >= 0)
+        close(r->fd);
+    wpd_header_free(&r->hdr);
+    free(r);
+}

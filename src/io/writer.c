@@ -1,0 +1,73 @@
+/* writer.c - dispatch to the per-format writers around a temp-then-rename
+ * output file. */
+#include "io/format.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+wpd_writer *wpd_writer_open(const char *path, const wpd_header *hdr,
+                            const wpd_write_options *opt, wpd_error *err)
+{
+    if (hdr->format != WPD_FMT_LAS && hdr->format != WPD_FMT_PLY) {
+        wpd_fail(err, WPD_E_USAGE, "%s: no output format", path);
+        return NULL;
+    }
+    wpd_writer *w = calloc(1, sizeof *w);
+    if (!w || wpd_header_copy(&w->hdr, hdr)) {
+        free(w);
+        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", path);
+        return NULL;
+    }
+    if (opt)
+        w->opt = *opt;
+    snprintf(w->hdr.path, sizeof w->hdr.path, "%s", path);
+    if (wpd_outfile_open(&w->out, path, w->opt.overwrite, err)) {
+        wpd_header_free(&w->hdr);
+        free(w);
+        return NULL;
+    }
+    int rc = hdr->format == WPD_FMT_LAS ? wpd_las_open_writer(w, err)
+                                        : wpd_ply_open_writer(w, err);
+    if (rc) {
+        wpd_writer_abort(w);
+        return NULL;
+    }
+    return w;
+}
+
+int wpd_writer_write(wpd_writer *w, const wpd_batch *b, wpd_error *err)
+{
+    if (b->record_size != w->hdr.schema.record_size)
+        return wpd_fail(err, WPD_E_USAGE, "%s: batch record size %u does not match %u",
+                        w->out.final_path, b->record_size, w->hdr.schema.record_size);
+    return w->ops->write(w, b, err);
+}
+
+static void free_writer(wpd_writer *w)
+{
+    if (w->ops && w->ops->close)
+        w->ops->close(w);
+    wpd_header_free(&w->hdr);
+    free(w);
+}
+
+int wpd_writer_close(wpd_writer *w, wpd_error *err)
+{
+    int rc = w->ops->finish(w, err);
+    if (rc == 0)
+        rc = wpd_outfile_commit(&w->out, err);
+    else
+        wpd_outfile_abort(&w->out);
+    free_writer(w);
+    return rc;
+}
+
+void wpd_writer_abort(wpd_writer *w)
+{
+    if (!w)
+        return;
+    wpd_outfile_abort(&w->out);
+    free_writer(w);
+}
+
+uint64_t wpd_writer_count(const wpd_writer *w) { return w->count; }
