@@ -2,6 +2,7 @@
  * output file. */
 #include "io/format.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
