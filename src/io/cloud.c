@@ -1,0 +1,181 @@
+#include "io/cloud.h"
+
+#include "io/reader.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct wpd_cloud {
+    int nfiles;
+    wpd_header *headers;      /* one per file (owned copies) */
+    int current;              /* file being read, nfiles when done */
+    wpd_reader *reader;       /* open reader of file `current`, or NULL */
+    uint64_t dropped_closed;  /* dropped points of files already finished */
+};
+
+/* Two dimensions agree if everything but a coordinate's scale/offset does. */
+static int same_dim(const wpd_dim *a, const wpd_dim *b, int is_coordinate)
+{
+    if (strcmp(a->name, b->name) || a->type != b->type || a->offset != b->offset ||
+        a->bit_shift != b->bit_shift || a->bit_count != b->bit_count ||
+        a->scaled != b->scaled)
+        return 0;
+    return is_coordinate || !a->scaled || (a->scale == b->scale && a->add == b->add);
+}
+
+static int check_same_layout(const wpd_header *first, const wpd_header *h, wpd_error *err)
+{
+    const wpd_schema *a = &first->schema, *b = &h->schema;
+    int same = first->format == h->format && a->record_size == b->record_size &&
+               a->ndims == b->ndims;
+    if (same && h->format == WPD_FMT_LAS)
+        same = first->las.pdrf == h->las.pdrf;
+    for (uint32_t i = 0; same && i < a->ndims; i++) {
+        int coord = (int)i == a->dim_x || (int)i == a->dim_y || (int)i == a->dim_z;
+        same = same_dim(&a->dims[i], &b->dims[i], coord);
+    }
+    if (!same)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: point layout differs from %s (inputs read as one cloud "
+                        "must have the same format and dimensions)",
+                        h->path, first->path);
+    return 0;
+}
+
+wpd_cloud *wpd_cloud_open(const char *const *paths, int n, wpd_error *err)
+{
+    wpd_cloud *c = calloc(1, sizeof *c);
+    if (!c || !(c->headers = calloc((size_t)(n > 0 ? n : 1), sizeof *c->headers))) {
+        free(c);
+        wpd_fail(err, WPD_E_MEMORY, "out of memory opening %d inputs", n);
+        return NULL;
+    }
+    for (int i = 0; i < n; i++) {
+        wpd_reader *r = wpd_reader_open(paths[i], err);
+        if (!r)
+            goto fail;
+        int rc = wpd_header_copy(&c->headers[i], wpd_reader_header(r));
+        wpd_reader_close(r);
+        c->nfiles = i + 1;
+        if (rc) {
+            wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", paths[i]);
+            goto fail;
+        }
+        if (i > 0 && check_same_layout(&c->headers[0], &c->headers[i], err))
+            goto fail;
+    }
+    return c;
+fail:
+    wpd_cloud_close(c);
+    return NULL;
+}
+
+int wpd_cloud_nfiles(const wpd_cloud *c) { return c->nfiles; }
+
+const wpd_header *wpd_cloud_header(const wpd_cloud *c, int i) { return &c->headers[i]; }
+
+uint64_t wpd_cloud_count(const wpd_cloud *c)
+{
+    uint64_t total = 0;
+    for (int i = 0; i < c->nfiles; i++)
+        total += c->headers[i].point_count;
+    return total;
+}
+
+static void close_current(wpd_cloud *c)
+{
+    if (c->reader) {
+        c->dropped_closed += wpd_reader_dropped(c->reader);
+        wpd_reader_close(c->reader);
+        c->reader = NULL;
+    }
+}
+
+long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err)
+{
+    while (c->current < c->nfiles) {
+        if (!c->reader && !(c->reader = wpd_reader_open(c->headers[c->current].path, err)))
+            return -1;
+        long got = wpd_reader_read(c->reader, b, err);
+        if (got != 0) {
+            if (file)
+                *file = c->current;
+            return got;
+        }
+        close_current(c);
+        c->current++;
+    }
+    b->n = 0;
+    return 0;
+}
+
+int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err)
+{
+    (void)err;
+    close_current(c);
+    c->current = 0;
+    c->dropped_closed = 0;
+    return 0;
+}
+
+uint64_t wpd_cloud_dropped(const wpd_cloud *c)
+{
+    return c->dropped_closed + (c->reader ? wpd_reader_dropped(c->reader) : 0);
+}
+
+void wpd_bounds_reset(wpd_bounds *b)
+{
+    for (int k = 0; k < 3; k++) {
+        b->min[k] = INFINITY;
+        b->max[k] = -INFINITY;
+    }
+    b->count = 0;
+}
+
+void wpd_bounds_add(wpd_bounds *b, const double *xyz, size_t n)
+{
+    double lo[3] = {b->min[0], b->min[1], b->min[2]};
+    double hi[3] = {b->max[0], b->max[1], b->max[2]};
+    for (size_t i = 0; i < n; i++) {
+        for (int k = 0; k < 3; k++) {
+            double v = xyz[3 * i + k];
+            lo[k] = v < lo[k] ? v : lo[k];
+            hi[k] = v > hi[k] ? v : hi[k];
+        }
+    }
+    for (int k = 0; k < 3; k++) {
+        b->min[k] = lo[k];
+        b->max[k] = hi[k];
+    }
+    b->count += n;
+}
+
+int wpd_cloud_bounds(wpd_cloud *c, wpd_bounds *out, wpd_error *err)
+{
+    wpd_batch b;
+    if (wpd_batch_init(&b, 65536, c->headers[0].schema.record_size))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    wpd_bounds_reset(out);
+    int rc = wpd_cloud_rewind(c, err);
+    long got;
+    while (rc == 0 && (got = wpd_cloud_read(c, &b, NULL, err)) > 0)
+        wpd_bounds_add(out, b.xyz, b.n);
+    if (rc == 0 && got < 0)
+        rc = -1;
+    wpd_batch_free(&b);
+    if (rc == 0)
+        rc = wpd_cloud_rewind(c, err);
+    return rc;
+}
+
+void wpd_cloud_close(wpd_cloud *c)
+{
+    if (!c)
+        return;
+    close_current(c);
+    for (int i = 0; i < c->nfiles; i++)
+        wpd_header_free(&c->headers[i]);
+    free(c->headers);
+    free(c);
+}

@@ -1,0 +1,53 @@
+/* cloud.h - several input files read as one logical point cloud.
+ *
+ * All files must share one record layout (same format and dimensions; LAS
+ * files may differ in scale and offset, since coordinates are delivered as
+ * doubles). Headers are read when the cloud is opened; point data is read
+ * one file at a time, so hundreds of tiles never hold hundreds of file
+ * descriptors.
+ */
+#ifndef WPD_CLOUD_H
+#define WPD_CLOUD_H
+
+#include "common/error.h"
+#include "io/batch.h"
+#include "io/schema.h"
+
+typedef struct wpd_bounds {
+    double min[3], max[3];
+    uint64_t count;            /* finite points seen */
+} wpd_bounds;
+
+typedef struct wpd_cloud wpd_cloud;
+
+/* Opens and validates the headers of paths[0..n-1]. Returns NULL with err set
+ * when a file cannot be read or the layouts differ. */
+wpd_cloud *wpd_cloud_open(const char *const *paths, int n, wpd_error *err);
+
+int wpd_cloud_nfiles(const wpd_cloud *c);
+/* Header of file i (valid until close). File 0's schema is the cloud's. */
+const wpd_header *wpd_cloud_header(const wpd_cloud *c, int i);
+/* Total records declared by the headers (non-finite points included). */
+uint64_t wpd_cloud_count(const wpd_cloud *c);
+
+/* Reads the next batch, crossing file boundaries; every point of one batch
+ * comes from one file, whose index is stored in *file (may be NULL).
+ * Returns points read, 0 at the end of the last file, -1 with err set. */
+long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err);
+/* Restarts reading at the first point of the first file. */
+int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err);
+/* Non-finite points dropped so far over all files. */
+uint64_t wpd_cloud_dropped(const wpd_cloud *c);
+
+/* Streams the whole cloud once (from the start) computing the bounds of the
+ * finite points, then rewinds. */
+int wpd_cloud_bounds(wpd_cloud *c, wpd_bounds *out, wpd_error *err);
+
+void wpd_cloud_close(wpd_cloud *c);
+
+/* Resets b to an empty box (min = +inf, max = -inf, count 0). */
+void wpd_bounds_reset(wpd_bounds *b);
+/* Extends b by the n points of xyz (3 doubles each). */
+void wpd_bounds_add(wpd_bounds *b, const double *xyz, size_t n);
+
+#endif

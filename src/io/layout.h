@@ -1,0 +1,45 @@
+/* layout.h - planning the output record layout when points change format.
+ *
+ * Same format: the output header is the input's (records pass unchanged).
+ * LAS -> PLY: x y z as double (georeferenced coordinates keep their
+ *   precision), every other LAS dimension as a named property (bit fields as
+ *   uchar, scaled extra bytes as double), and comments that remember the LAS
+ *   version, point format, scale and offset so PLY -> LAS can restore them.
+ * PLY -> LAS: LAS 1.4; colour, intensity, classification and every other
+ *   property with a LAS meaning go to their LAS fields (point format 6, 7 with
+ *   colour, 8 with nir, or the remembered one); the rest become extra bytes
+ *   described by an Extra Bytes VLR; scale and offset keep the precision of
+ *   the input coordinates (see pick_scale in layout.c).
+ */
+#ifndef WPD_LAYOUT_H
+#define WPD_LAYOUT_H
+
+#include "io/batch.h"
+#include "io/cloud.h"
+#include "io/schema.h"
+
+/* How one output field is computed from one input field. */
+typedef struct wpd_field_map {
+    int16_t src, dst;          /* dimension indices in the input / output schema */
+    double mul;                /* value multiplier (colour depth changes), 1 otherwise */
+} wpd_field_map;
+
+typedef struct wpd_layout_map {
+    int identity;              /* 1: records are copied unchanged */
+    uint32_t nfields;
+    wpd_field_map fields[WPD_MAX_DIMS];
+} wpd_layout_map;
+
+/* Fills out (a complete header for wpd_writer_open, owning its memory) and
+ * map for writing the points of `in` as format fmt. bounds are those of the
+ * finite points to be written (used to choose LAS scale and offset).
+ * Returns 0, or -1 with err set. */
+int wpd_layout_plan(const wpd_header *in, const wpd_bounds *bounds, wpd_format fmt,
+                    wpd_header *out, wpd_layout_map *map, wpd_error *err);
+
+/* Converts src (input layout) into dst (output layout, capacity >= src->n):
+ * every mapped field converted, unmapped output fields zero, xyz copied. */
+void wpd_layout_apply(const wpd_layout_map *map, const wpd_schema *in,
+                      const wpd_schema *out, const wpd_batch *src, wpd_batch *dst);
+
+#endif
