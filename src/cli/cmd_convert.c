@@ -1,0 +1,129 @@
+/* cmd_convert.c - `wpd convert IN... OUT`: streaming format conversion. */
+#include "cli/commands.h"
+#include "io/cloud.h"
+#include "io/layout.h"
+#include "io/writer.h"
+
+#include <getopt.h>
+#include <stdio.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+static const char *usage_text =
+    "usage: wpd convert [--ascii] [--force] IN... OUT\n"
+    "Streams the points of IN (several inputs are read as one cloud) into OUT,\n"
+    "whose format comes from its extension (.las or .ply). Every attribute is\n"
+    "kept: LAS to LAS keeps version, point format and VLRs; LAS to PLY writes\n"
+    "x y z as double and every LAS dimension as a named property; PLY to LAS\n"
+    "maps colour, intensity and classification and keeps the rest as extra\n"
+    "bytes. Points with non-finite coordinates are dropped with a warning.\n"
+    "  --ascii   write ascii PLY (default: binary little-endian)\n"
+    "  --force   replace OUT if it exists\n";
+
+/* Output format from the file name's extension. */
+static wpd_format format_from_name(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    if (dot && !strcasecmp(dot, ".las"))
+        return WPD_FMT_LAS;
+    if (dot && !strcasecmp(dot, ".ply"))
+        return WPD_FMT_PLY;
+    return WPD_FMT_NONE;
+}
+
+/* Refuses an output that is one of the inputs: it would be destroyed. */
+static int check_output_not_input(char **inputs, int n, const char *out, wpd_error *err)
+{
+    struct stat so, si;
+    if (stat(out, &so) != 0)
+        return 0;
+    for (int i = 0; i < n; i++)
+        if (stat(inputs[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+            return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", out);
+    return 0;
+}
+
+static int stream_points(wpd_cloud *cloud, const wpd_header *in, const wpd_header *out,
+                         const wpd_layout_map *map, wpd_writer *w, wpd_error *err)
+{
+    wpd_batch src, dst;
+    int rc = 0;
+    if (wpd_batch_init(&src, 65536, in->schema.record_size) ||
+        wpd_batch_init(&dst, 65536, out->schema.record_size)) {
+        wpd_batch_free(&src);
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    }
+    long got;
+    while ((got = wpd_cloud_read(cloud, &src, NULL, err)) > 0) {
+        wpd_layout_apply(map, &in->schema, &out->schema, &src, &dst);
+        if ((rc = wpd_writer_write(w, &dst, err)))
+            break;
+    }
+    if (got < 0)
+        rc = -1;
+    wpd_batch_free(&src);
+    wpd_batch_free(&dst);
+    return rc;
+}
+
+static int convert(char **inputs, int n, const char *output, wpd_write_options *wopt,
+                   wpd_error *err)
+{
+    wpd_format fmt = format_from_name(output);
+    if (fmt == WPD_FMT_NONE)
+        return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las or .ply", output);
+    if (check_output_not_input(inputs, n, output, err))
+        return -1;
+    wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, n, err);
+    if (!cloud)
+        return -1;
+    const wpd_header *in = wpd_cloud_header(cloud, 0);
+    wpd_bounds bounds = {0};
+    /* LAS output from PLY needs the bounds to choose scale and offset. */
+    int rc = in->format != fmt ? wpd_cloud_bounds(cloud, &bounds, err) : 0;
+    wpd_header out;
+    wpd_layout_map map;
+    if (rc == 0 && (rc = wpd_layout_plan(in, &bounds, fmt, &out, &map, err)) == 0) {
+        wpd_writer *w = wpd_writer_open(output, &out, wopt, err);
+        rc = w ? stream_points(cloud, in, &out, &map, w, err) : -1;
+        uint64_t written = w ? wpd_writer_count(w) : 0;
+        if (w && rc == 0)
+            rc = wpd_writer_close(w, err);
+        else
+            wpd_writer_abort(w);
+        if (rc == 0) {
+            if (wpd_cloud_dropped(cloud))
+                fprintf(stderr, "wpd convert: warning: %llu points with non-finite coordinates "
+                        "dropped\n", (unsigned long long)wpd_cloud_dropped(cloud));
+            printf("wrote %llu points to %s\n", (unsigned long long)written, output);
+        }
+        wpd_header_free(&out);
+    }
+    wpd_cloud_close(cloud);
+    return rc;
+}
+
+int wpd_cmd_convert(int argc, char **argv)
+{
+    static const struct option longopts[] = {
+        {"ascii", no_argument, 0, 'a'}, {"force", no_argument, 0, 'f'},
+        {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+    wpd_write_options wopt = {0};
+    int c;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "hf", longopts, NULL)) != -1) {
+        if (c == 'a') wopt.ply_ascii = 1;
+        else if (c == 'f') wopt.overwrite = 1;
+        else if (c == 'h') { fputs(usage_text, stdout); return 0; }
+        else { fputs(usage_text, stderr); return WPD_E_USAGE; }
+    }
+    if (argc - optind < 2) {
+        fputs(usage_text, stderr);
+        return WPD_E_USAGE;
+    }
+    wpd_error err = {0};
+    if (convert(argv + optind, argc - optind - 1, argv[argc - 1], &wopt, &err))
+        return wpd_report_error("convert", &err);
+    return 0;
+}

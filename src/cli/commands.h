@@ -1,0 +1,17 @@
+/* commands.h - the wpd subcommands. Each takes argv with argv[0] = the
+ * subcommand's name, prints its own errors as one line on stderr, and returns
+ * the process exit status (0 ok, 1 usage, 2 bad input, 3 I/O, 4 memory). */
+#ifndef WPD_COMMANDS_H
+#define WPD_COMMANDS_H
+
+#include "common/error.h"
+
+#define WPD_VERSION "0.1.0"
+
+int wpd_cmd_info(int argc, char **argv);
+int wpd_cmd_convert(int argc, char **argv);
+
+/* Prints "wpd <command>: <msg>" on stderr and returns err->code. */
+int wpd_report_error(const char *command, const wpd_error *err);
+
+#endif

@@ -1,0 +1,55 @@
+/* main.c - the wpd command: dispatch to subcommands. */
+#include "cli/commands.h"
+#include "synth.h"
+
+#include <stdio.h>
+#include <string.h>
+
+typedef struct command {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} command;
+
+static const command commands[] = {
+    {"info", wpd_cmd_info, "describe LAS/PLY files: format, count, bounds, schema, VLRs"},
+    {"convert", wpd_cmd_convert, "stream points from one file (or several) into LAS or PLY"},
+    {"synth", wpd_synth_main, "generate a synthetic city-like LiDAR scan of any size"},
+};
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: wpd <command> [options] ...\n\ncommands:\n");
+    for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
+        fprintf(f, "  %-9s %s\n", commands[i].name, commands[i].summary);
+    fprintf(f, "\n'wpd <command> --help' describes a command.\n"
+               "exit status: 0 success, 1 usage error, 2 bad input, 3 I/O error,\n"
+               "4 memory budget too small or out of memory.\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return WPD_E_USAGE;
+    }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        usage(stdout);
+        return 0;
+    }
+    if (!strcmp(argv[1], "--version")) {
+        printf("wpd %s\n", WPD_VERSION);
+        return 0;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
+        if (!strcmp(argv[1], commands[i].name))
+            return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "wpd: unknown command '%s' (see 'wpd --help')\n", argv[1]);
+    return WPD_E_USAGE;
+}
+
+int wpd_report_error(const char *command, const wpd_error *err)
+{
+    fprintf(stderr, "wpd %s: %s\n", command, err->msg[0] ? err->msg : "failed");
+    return err->code ? (int)err->code : WPD_E_IO;
+}
