@@ -1,0 +1,10 @@
+"""Entry point of the end-to-end tests."""
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import harness  # noqa: E402
+import test_io  # noqa: E402
+
+sys.exit(harness.run([test_io]))
