@@ -17,7 +17,7 @@ TEST_SRC := $(wildcard tests/unit/*.c)
 TEST_OBJ := $(TEST_SRC:%.c=build/%.o)
 
 # Debian packages needed to build and test.
-DEB_PKGS := gcc make libzstd-dev libc6-dev python3
+DEB_PKGS := gcc make libzstd-dev libc6-dev python3 python3-numpy bc
 
 .PHONY: all test demo bench install clean deps
 
