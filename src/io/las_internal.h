@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "common/error.h"
+#include "io/las.h"
 #include "io/schema.h"
 
 enum {
@@ -72,18 +73,5 @@ static inline void las_put_u16(uint8_t *p, uint16_t v) { memcpy(p, &v, 2); }
 static inline void las_put_u32(uint8_t *p, uint32_t v) { memcpy(p, &v, 4); }
 static inline void las_put_u64(uint8_t *p, uint64_t v) { memcpy(p, &v, 8); }
 static inline void las_put_f64(uint8_t *p, double v) { memcpy(p, &v, 8); }
-
-/* Fills s with the record layout of a LAS point record: the standard
- * dimensions of pdrf (0..10) in laspy/PDAL lowercase names, x/y/z scaled by
- * scale/offset, then the record_length - standard size extra bytes, named
- * from the Extra Bytes VLR (user "LASF_Spec", record 4) when vlrs holds one,
- * else one u8 dimension per byte ("extra_byte_0", ...). A descriptor that
- * is malformed or does not fit the extra bytes ends the described part (the
- * bytes are still carried in the record, only without a name); dimensions
- * beyond WPD_MAX_DIMS are not named either. record_length must be at least
- * las_pdrf_size[pdrf]. Never fails. */
-void wpd_las_build_schema(wpd_schema *s, uint8_t pdrf, uint16_t record_length,
-                          const double scale[3], const double offset[3],
-                          const wpd_vlr *vlrs, uint32_t nvlr);
 
 #endif

@@ -1,0 +1,866 @@
+/* test_las.c - the LAS reader and writer through the public API: real files
+ * from ../shared/data (skipped when absent), round trips, and synthetic
+ * malformed files built in memory. */
+#include "harness.h"
+
+#include "io/reader.h"
+#include "io/writer.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ------------------------------------------------------------ helpers */
+
+static int starts_with(const char *s, const char *prefix)
+{
+    return !strncmp(s, prefix, strlen(prefix));
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && !strcmp(s + n - m, suffix);
+}
+
+/* All records of a file, read in small batches (exercises batch edges). */
+typedef struct all_points {
+    uint64_t n;
+    uint32_t record_size;
+    uint8_t *records;
+    double *xyz;
+} all_points;
+
+static void free_points(all_points *p)
+{
+    free(p->records);
+    free(p->xyz);
+    memset(p, 0, sizeof *p);
+}
+
+/* Reads every point of r into p. Returns 0, or -1 with err set. */
+static int read_all(wpd_reader *r, all_points *p, size_t batch_cap, wpd_error *err)
+{
+    const wpd_header *h = wpd_reader_header(r);
+    memset(p, 0, sizeof *p);
+    p->record_size = h->schema.record_size;
+    p->records = malloc(h->point_count * p->record_size + 1);
+    p->xyz = malloc(h->point_count * 3 * sizeof(double) + 1);
+    wpd_batch b;
+    if (!p->records || !p->xyz || wpd_batch_init(&b, batch_cap, p->record_size))
+        return -1;
+    long got;
+    while ((got = wpd_reader_read(r, &b, err)) > 0) {
+        if (p->n + (uint64_t)got > h->point_count) {
+            wpd_batch_free(&b);
+            return -1; /* more points than announced */
+        }
+        memcpy(p->records + p->n * p->record_size, b.records, (size_t)got * p->record_size);
+        memcpy(p->xyz + 3 * p->n, b.xyz, (size_t)got * 3 * sizeof(double));
+        p->n += (uint64_t)got;
+    }
+    wpd_batch_free(&b);
+    return got < 0 ? -1 : 0;
+}
+
+static int write_file(const char *path, const void *data, size_t len)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -1;
+    size_t w = fwrite(data, 1, len, f);
+    return fclose(f) == 0 && w == len ? 0 : -1;
+}
+
+/* One row of a MANIFEST.tsv: file name, point count, notes. */
+typedef struct manifest_row {
+    char file[256];
+    long long point_count;
+    char notes[4096];
+} manifest_row;
+
+/* Calls fn for every data row of dir/MANIFEST.tsv. Returns rows seen. */
+static int for_each_manifest_row(const char *dir, void (*fn)(const char *dir,
+                                                            const manifest_row *row, void *ctx),
+                                 void *ctx)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/MANIFEST.tsv", dir);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return 0;
+    char *line = NULL;
+    size_t cap = 0;
+    int rows = 0;
+    for (int lineno = 0; getline(&line, &cap, f) > 0; lineno++) {
+        if (lineno == 0)
+            continue; /* column names */
+        line[strcspn(line, "\r\n")] = '\0';
+        char *col[9] = {0};
+        char *p = line;
+        for (int c = 0; c < 9 && p; c++) {
+            col[c] = p;
+            p = strchr(p, '\t');
+            if (p)
+                *p++ = '\0';
+        }
+        if (!col[7])
+            continue;
+        manifest_row row;
+        snprintf(row.file, sizeof row.file, "%s", col[0]);
+        row.point_count = col[6][0] ? atoll(col[6]) : -1;
+        snprintf(row.notes, sizeof row.notes, "%s", col[7]);
+        fn(dir, &row, ctx);
+        rows++;
+    }
+    free(line);
+    fclose(f);
+    return rows;
+}
+
+/* The six "bbox=[a..b, c..d, e..f]" numbers of a manifest note as printed
+ * (min x, max x, min y, max y, min z, max z). Returns 0, or -1 if absent. */
+static int manifest_bbox(const char *notes, char out[6][64])
+{
+    const char *p = strstr(notes, "bbox=[");
+    if (!p)
+        return -1;
+    p += 6;
+    for (int i = 0; i < 6; i++) {
+        char *end;
+        strtod(p, &end);
+        if (end == p || end - p >= 64)
+            return -1;
+        memcpy(out[i], p, (size_t)(end - p));
+        out[i][end - p] = '\0';
+        p = end;
+        p += (i % 2 == 0) ? 2 : 2; /* ".." or ", " */
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------ real files */
+
+typedef struct manifest_ctx {
+    int *failures_;
+    int files;
+} manifest_ctx;
+
+static void check_manifest_file(const char *dir, const manifest_row *row, void *vctx)
+{
+    manifest_ctx *ctx = vctx;
+    int *failures_ = ctx->failures_;
+    if (!ends_with(row->file, ".las"))
+        return;
+    char path[1024];
+    snprintf(path, sizeof path, "%.600s/%.255s", dir, row->file);
+    wpd_error err = {0};
+    wpd_reader *r = wpd_reader_open(path, &err);
+    CHECK_MSG(r != NULL, "%s: %s", path, err.msg);
+    if (!r)
+        return;
+    ctx->files++;
+    const wpd_header *h = wpd_reader_header(r);
+    CHECK_MSG(h->format == WPD_FMT_LAS, "%s", path);
+    CHECK_MSG((long long)h->point_count == row->point_count, "%s: count %llu, manifest %lld",
+              path, (unsigned long long)h->point_count, row->point_count);
+    char want[6][64];
+    if (manifest_bbox(row->notes, want) == 0) {
+        const double have[6] = {h->las.min[0], h->las.max[0], h->las.min[1],
+                                h->las.max[1], h->las.min[2], h->las.max[2]};
+        for (int i = 0; i < 6; i++) {
+            char got[64];
+            snprintf(got, sizeof got, "%.3f", have[i]);
+            CHECK_MSG(!strcmp(got, want[i]), "%s: bound %d is %s, manifest %s", path, i, got,
+                      want[i]);
+        }
+    } else {
+        CHECK_MSG(0, "%s: no bbox in the manifest notes", path);
+    }
+    all_points p;
+    int rc = read_all(r, &p, 1000, &err);
+    CHECK_MSG(rc == 0, "%s: %s", path, err.msg);
+    CHECK_MSG(p.n == h->point_count, "%s: read %llu of %llu", path, (unsigned long long)p.n,
+              (unsigned long long)h->point_count);
+    CHECK(wpd_reader_dropped(r) == 0);
+    free_points(&p);
+    wpd_reader_close(r);
+}
+
+TEST(las_manifest_files_open_and_match)
+{
+    const char *data = test_data_dir();
+    if (!data)
+        return;
+    char dir[1024];
+    manifest_ctx ctx = {failures_, 0};
+    snprintf(dir, sizeof dir, "%s/las", data);
+    for_each_manifest_row(dir, check_manifest_file, &ctx);
+    CHECK_MSG(ctx.files >= 40, "only %d LAS files in las/", ctx.files);
+    snprintf(dir, sizeof dir, "%s/scans", data);
+    for_each_manifest_row(dir, check_manifest_file, &ctx);
+    CHECK_MSG(ctx.files >= 45, "only %d LAS files in las/ and scans/", ctx.files);
+}
+
+/* Opens path and reads everything; returns the first error (or code OK). */
+static wpd_error open_and_read(const char *path)
+{
+    wpd_error err = {0};
+    wpd_reader *r = wpd_reader_open(path, &err);
+    if (r) {
+        all_points p;
+        read_all(r, &p, 4096, &err);
+        free_points(&p);
+        wpd_reader_close(r);
+    }
+    return err;
+}
+
+TEST(las_bad_files_fail_with_path)
+{
+    const char *data = test_data_dir();
+    if (!data)
+        return;
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s/bad", data);
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    int files = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (!ends_with(e->d_name, ".las") && !ends_with(e->d_name, ".laz"))
+            continue;
+        char path[1024];
+        snprintf(path, sizeof path, "%.600s/%.400s", dir, e->d_name);
+        wpd_error err = open_and_read(path);
+        files++;
+        CHECK_MSG(err.code != WPD_OK, "%s: accepted", path);
+        CHECK_MSG(starts_with(err.msg, path), "%s: message \"%s\"", path, err.msg);
+        CHECK_MSG(!strchr(err.msg, '\n'), "%s: multi-line message", path);
+        const char *expect = NULL;
+        if (!strcmp(e->d_name, "laspy_simple.laz"))
+            expect = "compressed LAS (LAZ) is not supported";
+        else if (strstr(e->d_name, "copc"))
+            expect = "COPC";
+        else if (!strcmp(e->d_name, "pdal_bad_vlr_count.las"))
+            expect = "VLR 3 of 3";
+        else if (!strcmp(e->d_name, "pdal_garbage_nVariableLength.las"))
+            expect = "VLR 1 of 1069128089";
+        else if (!strcmp(e->d_name, "pdal_1.2-with-color-clipped.las"))
+            expect = "point count 1065 needs 36210 bytes";
+        if (expect)
+            CHECK_MSG(strstr(err.msg, expect), "%s: \"%s\" lacks \"%s\"", path, err.msg, expect);
+    }
+    closedir(d);
+    CHECK(files >= 5);
+}
+
+/* ------------------------------------------------------------ round trip */
+
+static int vlrs_equal(const wpd_vlr *a, const wpd_vlr *b, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++)
+        if (strcmp(a[i].user_id, b[i].user_id) || a[i].record_id != b[i].record_id ||
+            a[i].length != b[i].length || strcmp(a[i].description, b[i].description) ||
+            (a[i].length && memcmp(a[i].data, b[i].data, a[i].length)))
+            return 0;
+    return 1;
+}
+
+/* Writes p with header h to out. Returns 0 or -1 with err set. */
+static int write_points(const char *out, const wpd_header *h, const all_points *p,
+                        size_t batch_cap, wpd_error *err)
+{
+    wpd_write_options opt = {.overwrite = 1};
+    wpd_writer *w = wpd_writer_open(out, h, &opt, err);
+    if (!w)
+        return -1;
+    for (uint64_t done = 0; done < p->n;) {
+        size_t n = p->n - done < batch_cap ? (size_t)(p->n - done) : batch_cap;
+        wpd_batch b = {.cap = n, .n = n, .record_size = p->record_size,
+                       .records = p->records + done * p->record_size,
+                       .xyz = p->xyz + 3 * done};
+        if (wpd_writer_write(w, &b, err)) {
+            wpd_writer_abort(w);
+            return -1;
+        }
+        done += n;
+    }
+    return wpd_writer_close(w, err);
+}
+
+static void check_round_trip(const char *dir, const manifest_row *row, void *vctx)
+{
+    manifest_ctx *ctx = vctx;
+    int *failures_ = ctx->failures_;
+    char path[1024], out[1024];
+    snprintf(path, sizeof path, "%.600s/%.255s", dir, row->file);
+    struct stat st;
+    if (!ends_with(row->file, ".las") || stat(path, &st) || st.st_size > 5000000)
+        return;
+    snprintf(out, sizeof out, "%.600s/rt_%.255s", test_tmp_dir(), row->file);
+    wpd_error err = {0};
+    wpd_reader *a = wpd_reader_open(path, &err);
+    CHECK_MSG(a != NULL, "%s: %s", path, err.msg);
+    if (!a)
+        return;
+    all_points pa = {0}, pb = {0};
+    const wpd_header *ha = wpd_reader_header(a);
+    int ok = read_all(a, &pa, 777, &err) == 0;
+    CHECK_MSG(ok, "%s: %s", path, err.msg);
+    ok = ok && write_points(out, ha, &pa, 500, &err) == 0;
+    CHECK_MSG(ok, "%s: %s", out, err.msg);
+    wpd_reader *b = ok ? wpd_reader_open(out, &err) : NULL;
+    CHECK_MSG(!ok || b, "%s: %s", out, err.msg);
+    if (b) {
+        ctx->files++;
+        const wpd_header *hb = wpd_reader_header(b);
+        CHECK_MSG(read_all(b, &pb, 1 << 16, &err) == 0, "%s: %s", out, err.msg);
+        CHECK_MSG(hb->point_count == ha->point_count && pb.n == pa.n, "%s", path);
+        CHECK_MSG(pb.n == pa.n && !memcmp(pa.records, pb.records, pa.n * pa.record_size),
+                  "%s: point records differ", path);
+        CHECK_MSG(hb->las.nvlr == ha->las.nvlr &&
+                      vlrs_equal(ha->las.vlrs, hb->las.vlrs, ha->las.nvlr),
+                  "%s: VLRs differ", path);
+        CHECK_MSG(hb->las.nevlr == ha->las.nevlr &&
+                      vlrs_equal(ha->las.evlrs, hb->las.evlrs, ha->las.nevlr),
+                  "%s: EVLRs differ (%u vs %u)", path, ha->las.nevlr, hb->las.nevlr);
+        CHECK_MSG(hb->las.pdrf == ha->las.pdrf && hb->las.record_length == ha->las.record_length &&
+                      hb->las.version_minor == ha->las.version_minor &&
+                      hb->las.header_tail_len == ha->las.header_tail_len &&
+                      hb->las.creation_year == ha->las.creation_year &&
+                      !memcmp(hb->las.guid, ha->las.guid, 16) &&
+                      !strcmp(hb->las.system_id, ha->las.system_id) &&
+                      !strcmp(hb->las.software, "wpd"),
+                  "%s: header facts differ", path);
+        /* Output bounds are those of the records written. */
+        for (int k = 0; k < 3 && pb.n; k++) {
+            double lo = INFINITY, hi = -INFINITY;
+            for (uint64_t i = 0; i < pb.n; i++) {
+                lo = fmin(lo, pb.xyz[3 * i + k]);
+                hi = fmax(hi, pb.xyz[3 * i + k]);
+            }
+            CHECK_MSG(hb->las.min[k] == lo && hb->las.max[k] == hi, "%s: bounds axis %d", path,
+                      k);
+        }
+        free_points(&pb);
+        wpd_reader_close(b);
+    }
+    free_points(&pa);
+    wpd_reader_close(a);
+    unlink(out);
+}
+
+TEST(las_round_trip_keeps_records_and_vlrs)
+{
+    const char *data = test_data_dir();
+    if (!data)
+        return;
+    char dir[1024];
+    manifest_ctx ctx = {failures_, 0};
+    snprintf(dir, sizeof dir, "%s/las", data);
+    for_each_manifest_row(dir, check_round_trip, &ctx);
+    snprintf(dir, sizeof dir, "%s/scans", data);
+    for_each_manifest_row(dir, check_round_trip, &ctx);
+    CHECK_MSG(ctx.files >= 40, "only %d round trips", ctx.files);
+}
+
+/* ------------------------------------------------------------ specific files */
+
+static wpd_reader *open_data(const char *rel, int *failures_)
+{
+    const char *data = test_data_dir();
+    if (!data)
+        return NULL;
+    char path[1024];
+    snprintf(path, sizeof path, "%.600s/%.255s", data, rel);
+    wpd_error err = {0};
+    wpd_reader *r = wpd_reader_open(path, &err);
+    CHECK_MSG(r != NULL, "%s: %s", path, err.msg);
+    return r;
+}
+
+static const wpd_dim *dim(const wpd_header *h, const char *name)
+{
+    int k = wpd_schema_find(&h->schema, name);
+    return k >= 0 ? &h->schema.dims[k] : NULL;
+}
+
+TEST(las_extra_bytes_described)
+{
+    wpd_reader *r = open_data("las/pdal_extrabytes.las", failures_);
+    if (!r)
+        return;
+    const wpd_header *h = wpd_reader_header(r);
+    CHECK(h->las.extra_bytes == 27 && h->schema.record_size == 61);
+    const wpd_dim *c2 = dim(h, "Colors[2]"), *f1 = dim(h, "Flags[1]");
+    const wpd_dim *in = dim(h, "Intensity"), *t = dim(h, "Time");
+    CHECK(c2 && c2->type == WPD_U16 && c2->offset == 38);
+    CHECK(f1 && f1->type == WPD_I8 && f1->offset == 48);  /* after 7 undocumented bytes */
+    CHECK(in && in->type == WPD_U32 && in->offset == 49);
+    CHECK(t && t->type == WPD_U64 && t->offset == 53);
+    CHECK(dim(h, "intensity") && dim(h, "gps_time") && dim(h, "red"));
+    wpd_reader_close(r);
+
+    /* Scaled descriptors, names with spaces made usable. */
+    r = open_data("las/laszip_5points_14.las", failures_);
+    if (!r)
+        return;
+    h = wpd_reader_header(r);
+    const wpd_dim *hag = dim(h, "height_above_ground");
+    CHECK(hag && hag->type == WPD_I16 && hag->offset == 30 && hag->scaled &&
+          hag->scale == 0.05);
+    CHECK(dim(h, "coverage_count") && dim(h, "overlap") && dim(h, "scanner_channel"));
+    wpd_reader_close(r);
+}
+
+TEST(las_extra_bytes_undescribed)
+{
+    wpd_reader *r = open_data("las/laspy_unregistered_extra_bytes.las", failures_);
+    if (!r)
+        return;
+    const wpd_header *h = wpd_reader_header(r);
+    CHECK(h->las.extra_bytes == 4 && h->las.point_count == 4);
+    for (int i = 0; i < 4; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "extra_byte_%d", i);
+        const wpd_dim *d = dim(h, name);
+        CHECK_MSG(d && d->type == WPD_U8 && d->offset == 30u + (unsigned)i, "%s", name);
+    }
+    CHECK(h->schema.ndims == 3 + 15 + 4);
+    wpd_reader_close(r);
+}
+
+TEST(las_64bit_counts_and_bit_fields)
+{
+    wpd_reader *r = open_data("las/pdal_autzen-bmx-2010.las", failures_);
+    if (!r)
+        return;
+    const wpd_header *h = wpd_reader_header(r);
+    CHECK(h->point_count == 829 && h->las.point_count == 829);
+    uint64_t sum = 0;
+    for (int i = 0; i < 15; i++)
+        sum += h->las.points_by_return[i];
+    CHECK_MSG(sum == 829, "by return sum %llu", (unsigned long long)sum);
+    const wpd_dim *rn = dim(h, "return_number"), *cls = dim(h, "classification");
+    CHECK(rn && rn->bit_count == 4 && rn->offset == 14 && cls && cls->offset == 16);
+    CHECK(dim(h, "scan_angle") && !dim(h, "scan_angle_rank"));
+    wpd_reader_close(r);
+
+    /* Classification flag bits of PDRF 3. */
+    r = open_data("las/pdal_synthetic_test.las", failures_);
+    if (!r)
+        return;
+    h = wpd_reader_header(r);
+    wpd_batch b;
+    wpd_error err;
+    if (wpd_batch_init(&b, 4, h->schema.record_size) == 0) {
+        CHECK(wpd_reader_read(r, &b, &err) == 1);
+        CHECK(wpd_dim_get(dim(h, "x"), b.records) == 1.0 && b.xyz[1] == 2.0 && b.xyz[2] == 3.0);
+        double s = wpd_dim_get(dim(h, "synthetic"), b.records);
+        double k = wpd_dim_get(dim(h, "key_point"), b.records);
+        double w = wpd_dim_get(dim(h, "withheld"), b.records);
+        CHECK_MSG(s + k + w >= 1, "flags %g %g %g", s, k, w);
+        CHECK(dim(h, "classification")->bit_count == 5);
+        wpd_batch_free(&b);
+    }
+    wpd_reader_close(r);
+}
+
+TEST(las_seek)
+{
+    wpd_reader *r = open_data("las/pdal_simple.las", failures_);
+    if (!r)
+        return;
+    const wpd_header *h = wpd_reader_header(r);
+    all_points p;
+    wpd_error err;
+    CHECK(wpd_reader_can_seek(r));
+    CHECK(read_all(r, &p, 100, &err) == 0 && p.n == 1065);
+    wpd_batch b;
+    if (wpd_batch_init(&b, 10, h->schema.record_size) == 0) {
+        CHECK(wpd_reader_seek(r, 500, &err) == 0);
+        CHECK(wpd_reader_read(r, &b, &err) == 10);
+        CHECK(!memcmp(b.records, p.records + 500 * 34, 10 * 34));
+        CHECK(b.xyz[0] == p.xyz[1500] && b.xyz[29] == p.xyz[3 * 509 + 2]);
+        CHECK(wpd_reader_seek(r, 1060, &err) == 0);
+        CHECK(wpd_reader_read(r, &b, &err) == 5);
+        CHECK(wpd_reader_read(r, &b, &err) == 0);
+        CHECK(wpd_reader_seek(r, 1065, &err) == 0 && wpd_reader_read(r, &b, &err) == 0);
+        CHECK(wpd_reader_seek(r, 1066, &err) == -1);
+        CHECK(wpd_reader_seek(r, 0, &err) == 0 && wpd_reader_read(r, &b, &err) == 10);
+        CHECK(!memcmp(b.records, p.records, 10 * 34));
+        wpd_batch_free(&b);
+    }
+    free_points(&p);
+    wpd_reader_close(r);
+}
+
+/* ------------------------------------------------------------ synthetic files */
+
+typedef struct synth {
+    uint8_t minor, pdrf;
+    uint16_t record_length;
+    uint32_t npoints;
+    int with_vlr;        /* one 10-byte VLR "test"/7 */
+} synth;
+
+/* Builds a small valid LAS file into buf (zeroed, big enough); returns its
+ * size. Points i = 0.. have X = 100 i, Y = -50 i, Z = 7, return i % 3 + 1. */
+static size_t build_las(uint8_t *buf, const synth *s)
+{
+    uint16_t hsize = s->minor >= 4 ? 375 : s->minor == 3 ? 235 : 227;
+    size_t vlr = s->with_vlr ? 54 + 10 : 0;
+    uint32_t off = (uint32_t)(hsize + vlr);
+    memcpy(buf, "LASF", 4);
+    buf[24] = 1;
+    buf[25] = s->minor;
+    memcpy(buf + 26, "synthetic", 9);
+    memcpy(buf + 94, &hsize, 2);
+    memcpy(buf + 96, &off, 4);
+    uint32_t nvlr = s->with_vlr ? 1 : 0;
+    memcpy(buf + 100, &nvlr, 4);
+    buf[104] = s->pdrf;
+    memcpy(buf + 105, &s->record_length, 2);
+    uint32_t legacy = s->pdrf >= 6 ? 0 : s->npoints;
+    memcpy(buf + 107, &legacy, 4);
+    const double scale[3] = {0.01, 0.01, 0.01}, offset[3] = {1000, 2000, 0};
+    memcpy(buf + 131, scale, 24);
+    memcpy(buf + 155, offset, 24);
+    if (s->minor >= 4) {
+        uint64_t n = s->npoints;
+        memcpy(buf + 247, &n, 8);
+    }
+    if (s->with_vlr) {
+        uint8_t *v = buf + hsize;
+        memcpy(v + 2, "test", 4);
+        v[18] = 7;
+        v[20] = 10;
+        memcpy(v + 54, "0123456789", 10);
+    }
+    for (uint32_t i = 0; i < s->npoints; i++) {
+        uint8_t *p = buf + off + (size_t)i * s->record_length;
+        int32_t xyz[3] = {100 * (int32_t)i, -50 * (int32_t)i, 7};
+        memcpy(p, xyz, 12);
+        p[14] = (uint8_t)(i % 3 + 1);
+    }
+    return off + (size_t)s->npoints * s->record_length;
+}
+
+static char *tmp_path(char *buf, size_t len, const char *name)
+{
+    snprintf(buf, len, "%s/%s", test_tmp_dir(), name);
+    return buf;
+}
+
+/* Writes the bytes to a temp file and checks that opening or reading it
+ * fails with a message that starts with its path and contains expect. */
+static void expect_failure(int *failures_, const char *name, const uint8_t *bytes, size_t len,
+                           const char *expect)
+{
+    char path[1024];
+    tmp_path(path, sizeof path, name);
+    if (write_file(path, bytes, len)) {
+        CHECK_MSG(0, "cannot write %s", path);
+        return;
+    }
+    wpd_error err = open_and_read(path);
+    CHECK_MSG(err.code == WPD_E_INPUT, "%s: code %d \"%s\"", name, err.code, err.msg);
+    CHECK_MSG(starts_with(err.msg, path) && strstr(err.msg, expect), "%s: \"%s\" (want \"%s\")",
+              name, err.msg, expect);
+}
+
+TEST(las_synthetic_valid_file)
+{
+    static uint8_t buf[8192];
+    memset(buf, 0, sizeof buf);
+    synth s = {2, 3, 34, 10, 1};
+    size_t len = build_las(buf, &s);
+    char path[1024];
+    tmp_path(path, sizeof path, "valid.las");
+    CHECK(write_file(path, buf, len) == 0);
+    wpd_error err = {0};
+    wpd_reader *r = wpd_reader_open(path, &err);
+    CHECK_MSG(r, "%s", err.msg);
+    if (!r)
+        return;
+    const wpd_header *h = wpd_reader_header(r);
+    CHECK(h->point_count == 10 && h->las.nvlr == 1 && h->las.vlrs[0].length == 10 &&
+          !strcmp(h->las.vlrs[0].user_id, "test") && !memcmp(h->las.vlrs[0].data, "0123", 4));
+    all_points p;
+    CHECK(read_all(r, &p, 3, &err) == 0 && p.n == 10);
+    CHECK(p.xyz[27] == 1009.0 && p.xyz[28] == 1995.5 && p.xyz[29] == 0.07);
+    free_points(&p);
+    wpd_reader_close(r);
+}
+
+TEST(las_synthetic_malformed_files)
+{
+    static uint8_t buf[8192], mod[8192];
+    memset(buf, 0, sizeof buf);
+    synth s = {2, 3, 34, 10, 1};
+    size_t len = build_las(buf, &s);
+
+    expect_failure(failures_, "trunc_header.las", buf, 100, "truncated header");
+    expect_failure(failures_, "trunc_points.las", buf, len - 1, "needs 340 bytes");
+
+    memcpy(mod, buf, len);
+    mod[104] |= 0x80;
+    expect_failure(failures_, "laz_bit.las", mod, len, "compressed LAS (LAZ) is not supported");
+    memcpy(mod, buf, len);
+    mod[104] |= 0x40;
+    expect_failure(failures_, "laz_bit6.las", mod, len, "LAZ");
+
+    memcpy(mod, buf, len);
+    mod[227 + 20] = 200; /* VLR payload length beyond the point data */
+    expect_failure(failures_, "vlr_len.las", mod, len, "VLR 1 of 1");
+    memcpy(mod, buf, len);
+    mod[100] = 2; /* a second VLR that does not exist */
+    expect_failure(failures_, "vlr_count.las", mod, len, "VLR 2 of 2");
+    memcpy(mod, buf, len);
+    memcpy(mod + 100, (uint32_t[]){0xFFFFFFFFu}, 4);
+    expect_failure(failures_, "vlr_garbage.las", mod, len, "VLR 2 of 4294967295");
+
+    memcpy(mod, buf, len);
+    memcpy(mod + 227 + 2, "laszip encoded\0\0", 16);
+    mod[227 + 18] = 0xBC, mod[227 + 19] = 0x56; /* 22204 */
+    expect_failure(failures_, "laz_vlr.las", mod, len, "LAZ");
+
+    memcpy(mod, buf, len);
+    mod[104] = 11;
+    expect_failure(failures_, "pdrf11.las", mod, len, "point data record format 11");
+    memcpy(mod, buf, len);
+    mod[105] = 30; /* record_length < 34 */
+    expect_failure(failures_, "reclen.las", mod, len, "record_length 30");
+    memcpy(mod, buf, len);
+    mod[94] = 200; /* header_size < 227 */
+    expect_failure(failures_, "hsize.las", mod, len, "header_size 200");
+    memcpy(mod, buf, len);
+    mod[25] = 5;
+    expect_failure(failures_, "version.las", mod, len, "LAS version 1.5");
+    memcpy(mod, buf, len);
+    memcpy(mod + 96, (uint32_t[]){100}, 4);
+    expect_failure(failures_, "ptoff.las", mod, len, "offset_to_point_data 100");
+    memcpy(mod, buf, len);
+    memcpy(mod + 131, (double[]){0.0}, 8);
+    expect_failure(failures_, "scale0.las", mod, len, "x scale");
+    memcpy(mod, buf, len);
+    memcpy(mod + 107, (uint32_t[]){0xFFFFFFFFu}, 4);
+    expect_failure(failures_, "count.las", mod, len, "point count 4294967295");
+
+    /* 1.4: EVLR beyond the file, and an undecodable Extra Bytes VLR. */
+    memset(buf, 0, sizeof buf);
+    s = (synth){4, 6, 30, 4, 0};
+    len = build_las(buf, &s);
+    memcpy(mod, buf, len);
+    memcpy(mod + 235, (uint64_t[]){len}, 8);
+    mod[243] = 1;
+    expect_failure(failures_, "evlr.las", mod, len, "EVLR 1 of 1");
+    memcpy(mod + 235, (uint64_t[]){len - 30}, 8);
+    expect_failure(failures_, "evlr_inside.las", mod, len, "start_of_first_evlr");
+}
+
+TEST(las_synthetic_counts_14)
+{
+    static uint8_t buf[8192];
+    memset(buf, 0, sizeof buf);
+    synth s = {4, 1, 28, 6, 0};
+    size_t len = build_las(buf, &s);
+    memcpy(buf + 107, (uint32_t[]){5}, 4); /* legacy disagrees: 64-bit wins */
+    char path[1024];
+    tmp_path(path, sizeof path, "counts14.las");
+    CHECK(write_file(path, buf, len) == 0);
+    wpd_error err;
+    wpd_reader *r = wpd_reader_open(path, &err);
+    CHECK_MSG(r, "%s", err.msg);
+    if (r) {
+        CHECK(wpd_reader_header(r)->point_count == 6);
+        wpd_reader_close(r);
+    }
+    /* 64-bit count 0 next to a legacy count: the legacy one is used. */
+    memcpy(buf + 247, (uint64_t[]){0}, 8);
+    CHECK(write_file(path, buf, len) == 0);
+    r = wpd_reader_open(path, &err);
+    CHECK_MSG(r, "%s", err.msg);
+    if (r) {
+        CHECK(wpd_reader_header(r)->point_count == 5);
+        wpd_reader_close(r);
+    }
+}
+
+/* ------------------------------------------------------------ writer */
+
+static void read_bytes(const char *path, uint8_t *buf, size_t cap, size_t *len)
+{
+    *len = 0;
+    FILE *f = fopen(path, "rb");
+    if (f) {
+        *len = fread(buf, 1, cap, f);
+        fclose(f);
+    }
+}
+
+TEST(las_writer_header_fields)
+{
+    static uint8_t buf[8192], out[8192];
+    memset(buf, 0, sizeof buf);
+    synth s = {4, 6, 30, 9, 1};
+    size_t len = build_las(buf, &s);
+    char in_path[1024], out_path[1024];
+    tmp_path(in_path, sizeof in_path, "w_in.las");
+    tmp_path(out_path, sizeof out_path, "w_out.las");
+    CHECK(write_file(in_path, buf, len) == 0);
+    wpd_error err;
+    wpd_reader *r = wpd_reader_open(in_path, &err);
+    CHECK_MSG(r, "%s", err.msg);
+    if (!r)
+        return;
+    all_points p;
+    CHECK(read_all(r, &p, 64, &err) == 0);
+    /* Shift the points: bounds and returns come from what is written. */
+    p.xyz[0] = 990.0;
+    uint8_t before[9 * 30];
+    memcpy(before, p.records, sizeof before);
+    CHECK(write_points(out_path, wpd_reader_header(r), &p, 4, &err) == 0);
+    CHECK_MSG(!memcmp(before, p.records, sizeof before), "caller's records modified");
+    size_t n;
+    read_bytes(out_path, out, sizeof out, &n);
+    CHECK(n == len);
+    uint32_t legacy;
+    uint64_t count, by_return[3];
+    double minx;
+    memcpy(&legacy, out + 107, 4);
+    memcpy(&count, out + 247, 8);
+    memcpy(by_return, out + 255, 24);
+    memcpy(&minx, out + 187, 8);
+    CHECK(legacy == 0 && count == 9); /* PDRF 6: legacy count 0 */
+    CHECK(by_return[0] == 3 && by_return[1] == 3 && by_return[2] == 3);
+    CHECK(minx == 990.0);
+    CHECK(!memcmp(out + 58, "wpd\0", 4));
+    CHECK(!memcmp(out + 26, "synthetic", 9));
+    free_points(&p);
+    wpd_reader_close(r);
+}
+
+TEST(las_writer_rejects_unrepresentable_coordinates)
+{
+    static uint8_t buf[8192];
+    memset(buf, 0, sizeof buf);
+    synth s = {2, 0, 20, 3, 0};
+    size_t len = build_las(buf, &s);
+    char in_path[1024], out_path[1024];
+    tmp_path(in_path, sizeof in_path, "q_in.las");
+    tmp_path(out_path, sizeof out_path, "q_out.las");
+    CHECK(write_file(in_path, buf, len) == 0);
+    wpd_error err;
+    wpd_reader *r = wpd_reader_open(in_path, &err);
+    if (!r) {
+        CHECK_MSG(0, "%s", err.msg);
+        return;
+    }
+    all_points p;
+    CHECK(read_all(r, &p, 64, &err) == 0);
+    p.xyz[7] = 1e12; /* y of point 2 with scale 0.01 */
+    CHECK(write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
+    CHECK_MSG(starts_with(err.msg, out_path) && strstr(err.msg, "point 2: y"), "%s", err.msg);
+    struct stat st;
+    CHECK(stat(out_path, &st) != 0); /* no partial output */
+    p.xyz[7] = NAN;
+    CHECK(write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
+    free_points(&p);
+    wpd_reader_close(r);
+}
+
+/* ------------------------------------------------------------ throughput */
+
+/* Only with WPD_BENCH=1: writes a 20 M point PDRF 3 file, then reads it
+ * single-threaded computing the bounds, and prints points per second. */
+TEST(las_read_throughput)
+{
+    if (!getenv("WPD_BENCH"))
+        return;
+    const uint64_t total = getenv("WPD_BENCH_POINTS") ? strtoull(getenv("WPD_BENCH_POINTS"), 0, 10)
+                                                      : 20000000ull;
+    static uint8_t hdrbuf[8192];
+    synth s = {2, 3, 34, 1, 0};
+    memset(hdrbuf, 0, sizeof hdrbuf);
+    build_las(hdrbuf, &s);
+    char in_path[1024], out_path[1024];
+    tmp_path(in_path, sizeof in_path, "bench_seed.las");
+    tmp_path(out_path, sizeof out_path, "bench.las");
+    CHECK(write_file(in_path, hdrbuf, 227 + 34) == 0);
+    wpd_error err;
+    wpd_reader *seed = wpd_reader_open(in_path, &err);
+    if (!seed) {
+        CHECK_MSG(0, "%s", err.msg);
+        return;
+    }
+    wpd_write_options opt = {.overwrite = 1};
+    wpd_writer *w = wpd_writer_open(out_path, wpd_reader_header(seed), &opt, &err);
+    CHECK_MSG(w, "%s", err.msg);
+    wpd_batch b;
+    const size_t cap = 1 << 16;
+    if (!w || wpd_batch_init(&b, cap, 34))
+        return;
+    memset(b.records, 0, cap * 34);
+    uint64_t rng = 88172645463325252ull;
+    for (size_t i = 0; i < cap; i++) {
+        rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+        b.xyz[3 * i] = 1000 + (double)(rng & 0xFFFFF) * 0.01;
+        b.xyz[3 * i + 1] = 2000 + (double)((rng >> 20) & 0xFFFFF) * 0.01;
+        b.xyz[3 * i + 2] = (double)((rng >> 40) & 0xFFFF) * 0.01;
+        b.records[i * 34 + 14] = (uint8_t)(rng >> 60 & 3) + 1;
+    }
+    struct timespec t0, t1, t2;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (uint64_t done = 0; done < total;) {
+        b.n = total - done < cap ? (size_t)(total - done) : cap;
+        CHECK_MSG(wpd_writer_write(w, &b, &err) == 0, "%s", err.msg);
+        done += b.n;
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    CHECK_MSG(wpd_writer_close(w, &err) == 0, "%s", err.msg);
+    clock_gettime(CLOCK_MONOTONIC, &t2);
+    double wsec = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    double csec = (double)(t2.tv_sec - t1.tv_sec) + 1e-9 * (double)(t2.tv_nsec - t1.tv_nsec);
+    wpd_batch_free(&b);
+    wpd_reader_close(seed);
+
+    for (int pass = 0; pass < 3; pass++) { /* pass 0 warms the page cache */
+        wpd_reader *r = wpd_reader_open(out_path, &err);
+        if (!r || wpd_batch_init(&b, 1 << 16, 34))
+            return;
+        double lx = INFINITY, ly = INFINITY, lz = INFINITY;
+        double hx = -INFINITY, hy = -INFINITY, hz = -INFINITY;
+        uint64_t n = 0;
+        long got;
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        while ((got = wpd_reader_read(r, &b, &err)) > 0) {
+            const double *v = b.xyz;
+            for (long i = 0; i < got; i++, v += 3) {
+                lx = v[0] < lx ? v[0] : lx, hx = v[0] > hx ? v[0] : hx;
+                ly = v[1] < ly ? v[1] : ly, hy = v[1] > hy ? v[1] : hy;
+                lz = v[2] < lz ? v[2] : lz, hz = v[2] > hz ? v[2] : hz;
+            }
+            n += (uint64_t)got;
+        }
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+        double sec = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+        CHECK(n == total);
+        if (pass)
+            printf("  LAS PDRF 3 read: %llu points in %.3f s = %.1f M points/s (bounds %.2f..%.2f,"
+                   " %.2f..%.2f, %.2f..%.2f); write %.1f M points/s + %.2f s fsync at close\n",
+                   (unsigned long long)n, sec, n / sec / 1e6, lx, hx, ly, hy, lz, hz,
+                   total / wsec / 1e6, csec);
+        wpd_batch_free(&b);
+        wpd_reader_close(r);
+    }
+    unlink(out_path);
+}
