@@ -16,21 +16,40 @@ static int is_coordinate(const wpd_schema *s, int i)
     return i == s->dim_x || i == s->dim_y || i == s->dim_z;
 }
 
-static void map_add(wpd_layout_map *m, int src, int dst, double mul)
+/* A plain field (no bit field, no scale) of one type on both sides with no
+ * multiplier is copied as bytes: a value round trip through double would
+ * quieten signalling NaNs (real files hold such GPS times) and round 64-bit
+ * integers. */
+static int raw_copy(const wpd_dim *a, const wpd_dim *b, double mul)
 {
-    m->fields[m->nfields].src = (int16_t)src;
-    m->fields[m->nfields].dst = (int16_t)dst;
-    m->fields[m->nfields].mul = mul;
-    m->nfields++;
+    return mul == 1.0 && a->type == b->type && !a->bit_count && !b->bit_count &&
+           !a->scaled && !b->scaled;
+}
+
+static void map_add(wpd_layout_map *m, const wpd_schema *in, int src, const wpd_schema *out,
+                    int dst, double mul)
+{
+    wpd_field_map *f = &m->fields[m->nfields++];
+    f->src = (int16_t)src;
+    f->dst = (int16_t)dst;
+    f->mul = mul;
+    f->raw_bytes = raw_copy(&in->dims[src], &out->dims[dst], mul)
+                       ? (uint8_t)wpd_type_size(in->dims[src].type)
+                       : 0;
 }
 
 /* ------------------------------------------------------------------ LAS -> PLY */
 
+/* PLY property type for a LAS dimension. 64-bit integers become double:
+ * PLY 1.0 has no 64-bit integer type and common readers (rply, MeshLab)
+ * refuse the int64/uint64 extension; values stay exact below 2^53. */
 static wpd_type ply_type_for(const wpd_dim *d)
 {
     if (d->bit_count)
         return WPD_U8;
-    return d->scaled ? WPD_F64 : d->type;
+    if (d->scaled || d->type == WPD_I64 || d->type == WPD_U64)
+        return WPD_F64;
+    return d->type;
 }
 
 static int add_comment(wpd_header *out, const char *fmt, ...)
@@ -82,7 +101,7 @@ static int plan_las_to_ply(const wpd_header *in, wpd_header *out, wpd_layout_map
         if (d < 0)
             return wpd_fail(err, WPD_E_INPUT, "%s: too many dimensions for PLY", in->path);
         off += (uint32_t)wpd_type_size(t);
-        map_add(m, (int)i, d, 1.0);
+        map_add(m, is, (int)i, s, d, 1.0);
     }
     s->record_size = off;
     out->ply.encoding = WPD_PLY_BINARY_LE;
@@ -296,7 +315,8 @@ static int plan_ply_to_las(const wpd_header *in, const wpd_bounds *bounds, wpd_h
             (src = find_ply_source(is, name, taken)) < 0)
             continue;
         taken[src] = 1;
-        map_add(m, src, (int)j, colour_multiplier(name, is->dims[src].type));
+        map_add(m, is, src, &out->schema, (int)j,
+                colour_multiplier(name, is->dims[src].type));
     }
     return 0;
 }
@@ -338,6 +358,11 @@ void wpd_layout_apply(const wpd_layout_map *map, const wpd_schema *in,
         uint8_t *w = dst->records + i * dst->record_size;
         for (uint32_t f = 0; f < map->nfields; f++) {
             const wpd_field_map *fm = &map->fields[f];
+            if (fm->raw_bytes) {
+                memcpy(w + out->dims[fm->dst].offset, r + in->dims[fm->src].offset,
+                       fm->raw_bytes);
+                continue;
+            }
             double v = wpd_dim_get(&in->dims[fm->src], r) * fm->mul;
             wpd_dim_set(&out->dims[fm->dst], w, v);
         }

@@ -22,6 +22,7 @@
 typedef struct wpd_field_map {
     int16_t src, dst;          /* dimension indices in the input / output schema */
     double mul;                /* value multiplier (colour depth changes), 1 otherwise */
+    uint8_t raw_bytes;         /* >0: same plain type both sides, copy this many bytes */
 } wpd_field_map;
 
 typedef struct wpd_layout_map {
