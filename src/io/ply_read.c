@@ -228,10 +228,13 @@ static int stream_skip(ply_stream *s, uint64_t n)
 
 /* Which bytes separate ascii tokens. NUL is not a separator: it ends the
  * scan as the buffer sentinel. */
-static int is_space(unsigned char c)
-{
-    return c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\v' || c == '\f';
-}
+/* Whitespace lookup: a table load beats six comparisons in the hottest loop
+ * of the ascii reader. */
+static const uint8_t space_table[256] = {
+    [' '] = 1, ['\n'] = 1, ['\r'] = 1, ['\t'] = 1, ['\v'] = 1, ['\f'] = 1,
+};
+
+static inline int is_space(unsigned char c) { return space_table[c]; }
 
 /* Finds the next whitespace-separated token. Returns 1 with *tok and *len set
  * (the token is followed by a separator or the NUL sentinel), 0 at end of

@@ -265,14 +265,30 @@ static size_t format_int(char *out, int64_t v, int is_unsigned, uint64_t uv)
     return len;
 }
 
-/* Formats field d of a packed record: integers exact, float with 9 and
- * double with 17 significant digits (both round-trip exactly). */
+/* Shortest "%.Ng" form of v, N from min_digits up to max_digits, that reads
+ * back as the same value (as float when is_float). Short forms keep ascii
+ * files small and let readers take the exact fast path of their number
+ * parser; max_digits (9 for float, 17 for double) always round-trips. */
+static size_t format_shortest(char *out, double v, int min_digits, int max_digits, int is_float)
+{
+    size_t len = 0;
+    for (int digits = min_digits; digits <= max_digits; digits++) {
+        len = (size_t)snprintf(out, PLY_ASCII_VALUE_MAX, "%.*g", digits, v);
+        double back = strtod(out, NULL);
+        if (is_float ? (float)back == (float)v : back == v)
+            break;
+    }
+    return len;
+}
+
+/* Formats field d of a packed record: integers exact, floating point in the
+ * shortest form that round-trips exactly (NaN and inf as printf writes them). */
 static size_t format_value(char *out, const wpd_dim *d, const uint8_t *rec)
 {
     const uint8_t *p = rec + d->offset;
     switch (d->type) {
-    case WPD_F32: { float v; memcpy(&v, p, 4); return (size_t)snprintf(out, PLY_ASCII_VALUE_MAX, "%.9g", (double)v); }
-    case WPD_F64: { double v; memcpy(&v, p, 8); return (size_t)snprintf(out, PLY_ASCII_VALUE_MAX, "%.17g", v); }
+    case WPD_F32: { float v; memcpy(&v, p, 4); return format_shortest(out, v, 6, 9, 1); }
+    case WPD_F64: { double v; memcpy(&v, p, 8); return format_shortest(out, v, 15, 17, 0); }
     case WPD_I8: return format_int(out, (int8_t)p[0], 0, 0);
     case WPD_U8: return format_int(out, 0, 1, p[0]);
     case WPD_I16: { int16_t v; memcpy(&v, p, 2); return format_int(out, v, 0, 0); }
