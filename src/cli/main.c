@@ -41,9 +41,17 @@ int main(int argc, char **argv)
         printf("wpd %s\n", WPD_VERSION);
         return 0;
     }
-    for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
-        if (!strcmp(argv[1], commands[i].name))
-            return commands[i].run(argc - 1, argv + 1);
+    for (size_t i = 0; i < sizeof commands / sizeof *commands; i++) {
+        if (strcmp(argv[1], commands[i].name))
+            continue;
+        /* Every subcommand answers --version the same way. */
+        for (int a = 2; a < argc && strcmp(argv[a], "--"); a++)
+            if (!strcmp(argv[a], "--version")) {
+                printf("wpd %s\n", WPD_VERSION);
+                return 0;
+            }
+        return commands[i].run(argc - 1, argv + 1);
+    }
     fprintf(stderr, "wpd: unknown command '%s' (see 'wpd --help')\n", argv[1]);
     return WPD_E_USAGE;
 }

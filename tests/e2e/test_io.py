@@ -51,9 +51,11 @@ def test_info_text_and_help():
     assert "LAS 1.2, point format 3" in out and "1065" in out and "intensity" in out
     out = wpd("info", data("ply", "pcl_bun0_normals.ply")).stdout
     assert "binary_little_endian" in out and "normal_x" in out
-    for cmd in ([], ["info"], ["convert"]):
-        assert wpd(*cmd, "--help").stdout.startswith("usage:")
-    assert re.match(r"wpd \d+\.\d+\.\d+", wpd("--version").stdout)
+    for cmd in ([], ["info"], ["convert"], ["synth"]):
+        assert wpd(*cmd, "--help").stdout.startswith("usage:"), cmd
+        assert re.match(r"wpd \d+\.\d+\.\d+", wpd(*cmd, "--version").stdout), cmd
+    p = wpd("frobnicate", check=False)
+    assert p.returncode == 1 and "unknown command" in p.stderr
 
 
 def test_bad_files_fail_cleanly():
