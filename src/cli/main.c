@@ -1,5 +1,6 @@
 /* main.c - the wpd command: dispatch to subcommands. */
 #include "cli/commands.h"
+#include "metrics.h"
 #include "synth.h"
 
 #include <stdio.h>
@@ -15,6 +16,7 @@ static const command commands[] = {
     {"info", wpd_cmd_info, "describe LAS/PLY files: format, count, bounds, schema, VLRs"},
     {"convert", wpd_cmd_convert, "stream points from one file (or several) into LAS or PLY"},
     {"synth", wpd_synth_main, "generate a synthetic city-like LiDAR scan of any size"},
+    {"metrics", wpd_metrics_main, "quality of a resampling: distances, density, spacing"},
 };
 
 static void usage(FILE *f)
