@@ -1,0 +1,81 @@
+/* synth.h - `wpd synth`: a synthetic city-like airborne LiDAR scan of any
+ * size, for tests and benchmarks.
+ *
+ * The scene (terrain, streets, buildings with walls and flat or gabled
+ * roofs, street and park trees with multiple returns, a little noise) is
+ * scanned by a simulated aircraft flying parallel strips with side overlap;
+ * see the comment block at the top of synth.c. The points are generated and
+ * written in batches, never held, so N may be anything from 1 to billions;
+ * the scene grows with N so that the density stays at about 12 points/m2.
+ *
+ * The output is a function of (points, seed) only: the same options give the
+ * same bytes, whatever the machine load, time or thread count. Splitting into
+ * tiles only routes the same points to different files, in the same order.
+ */
+#ifndef WPD_SYNTH_H
+#define WPD_SYNTH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+#include "io/schema.h"
+
+/* Most tile files written at once (each holds an open file and a batch). */
+#define WPD_SYNTH_MAX_TILES 1024
+
+typedef struct wpd_synth_options {
+    uint64_t points;      /* exact number of points to write, >= 1 */
+    uint64_t seed;        /* scene and scan randomness; any value */
+    int tiles;            /* 0 or 1: one file; K in 2..WPD_SYNTH_MAX_TILES:
+                             K files, one per cell of a columns x rows grid */
+    wpd_format format;    /* WPD_FMT_LAS or WPD_FMT_PLY; WPD_FMT_NONE: taken
+                             from the extension of output (.las / .ply) */
+    int ply_ascii;        /* PLY only: ascii instead of binary little-endian */
+    int overwrite;        /* replace existing output files (else refuse) */
+    const char *output;   /* output path; tile paths are derived from it */
+} wpd_synth_options;
+
+/* What a run wrote. Bounds are those of the coordinates as stored (LAS:
+ * on the 0.01 m grid; PLY stores the same values as doubles). */
+typedef struct wpd_synth_summary {
+    uint64_t points;      /* == options.points */
+    int files;            /* 1, or the number of tiles */
+    int columns, rows;    /* tile grid (1 x 1 without tiles) */
+    int strips;           /* flight strips that contributed points */
+    double side;          /* scene edge length in metres */
+    double min[3], max[3];
+} wpd_synth_summary;
+
+/* Generates opt->points points and writes them to opt->output, or with
+ * tiles = K > 1 to K files named by wpd_synth_tile_path (tile t covers
+ * column (t-1) % columns, row (t-1) / columns of a near-square grid over the
+ * scene, columns >= rows and columns * rows == K; every point goes to the
+ * tile containing its stored x, y, so the tiles' bounds meet only at their
+ * borders and their counts sum to points). Every file appears under its
+ * name only when complete; on failure none of the run's files is left.
+ * Returns 0 and fills *summary (if not NULL), or -1 with err set:
+ * WPD_E_USAGE for bad options, WPD_E_IO for a write failure. */
+int wpd_synth_generate(const wpd_synth_options *opt, wpd_synth_summary *summary,
+                       wpd_error *err);
+
+/* wpd_synth_generate without the summary. */
+int wpd_synth_run(const wpd_synth_options *opt, wpd_error *err);
+
+/* Path of tile t (1-based) of output: "city.las" -> "city_tile3.las"; the
+ * suffix goes before the last extension of the file name, or at the end if
+ * it has none. Returns 0, or -1 if it does not fit in len bytes. */
+int wpd_synth_tile_path(const char *output, int t, char *buf, size_t len);
+
+/* The `wpd synth` subcommand; argv[0] is "synth".
+ *   wpd synth -n N -o OUT [--seed S] [--tiles K] [--ascii] [--force] [--help]
+ * N accepts the suffixes k, M, G (10^3, 10^6, 10^9). The format comes from
+ * OUT's extension (.las or .ply). On success prints one line on stdout (count,
+ * files, bounds) and returns 0; on error prints one line
+ * "wpd synth: <msg>" on stderr and returns 1 (usage: unknown option, missing
+ * -n/-o, output exists without --force), 2 (bad value: N, seed, K,
+ * extension, --ascii with LAS) or 3 (I/O: cannot create or write).
+ * --help prints the usage on stdout and returns 0. */
+int wpd_synth_main(int argc, char **argv);
+
+#endif
