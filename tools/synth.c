@@ -9,10 +9,12 @@
  *  - Blocks: a 96 m grid of 80 m blocks and 16 m streets, centred on the
  *    scene. 15 % of the blocks are parks (never the central one), the others
  *    are split into 1..3 x 1..3 lots, each with one box building: hashed
- *    footprint (>= 3 m setback), 1..20 floors (mostly low), flat roof, or for
- *    low buildings a gabled roof whose ridge runs along the longer side.
+ *    footprint (>= 3 m setback), 1..20 floors (mostly low; at most a quarter
+ *    of the flying height), a flat roof or, for buildings of up to 3 floors
+ *    and 20 m span, a gabled roof whose ridge runs along the longer side.
  *    Roofs and walls are class 6. Walls get points because the pulses are
- *    traced as tilted rays: a ray leaning towards a facade meets the facade.
+ *    traced as tilted rays: a ray leaning towards a facade meets the facade;
+ *    roof edges stay sharp and walls shade the ground behind them.
  *  - Trees: along both kerbs of every street (10 m slots, 75 % planted) and
  *    on a 10 m jittered grid in parks (65 %). A crown is an ellipsoid with a
  *    three-lobed, rotated outline; a pulse through it gives 1..5 returns: the
@@ -23,9 +25,10 @@
  *
  * THE ACQUISITION
  *  - Parallel north/south strips, alternating direction, swath W = L / 2.4
- *    clamped to 150..500 m, strip spacing 0.7 W (30 % side overlap, so the
+ *    clamped to 60..500 m, strip spacing 0.7 W (30 % side overlap, so the
  *    overlaps have double density); at least 3 strips, centred on the scene;
- *    each strip is its own point_source_id. Flying height W / 2 / tan 22 deg.
+ *    each strip is its own point_source_id. Flying height W / 2 / tan 22 deg
+ *    (74 .. 619 m: small scenes are low, UAV-like surveys).
  *  - An oscillating mirror sweeps -22..+22 deg across track at equal angular
  *    steps (zig-zag: alternate lines run in opposite directions), so ground
  *    spacing widens towards the swath edges; the ground speed wobbles by 8 %
@@ -52,6 +55,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -433,24 +437,29 @@ static inline double dist2(double x, double y, const tree *t)
     return (x - t->cx) * (x - t->cx) + (y - t->cy) * (y - t->cy);
 }
 
-/* The tree whose crown may cover (x, y): a park tree, or the nearest of the
- * street trees of the two kerb directions. caches[0..2] are per kind. */
+static const tree *nearer(double x, double y, const tree *a, const tree *b)
+{
+    if (!a || !b)
+        return a ? a : b;
+    return dist2(x, y, a) <= dist2(x, y, b) ? a : b;
+}
+
+/* The tree whose crown may cover (x, y): the nearest of the park tree of
+ * the cell and the street trees of the two kerb directions that can reach
+ * it. caches[0..2] are per kind (two kerb directions, park). */
 static const tree *tree_at(const scene *sc, double x, double y, block_info *blocks,
                           tree caches[3])
 {
     block_pos p = locate(sc, x, y);
-    if (p.u >= STREET_WIDTH + TREE_MAX_REACH - KERB_OFFSET &&
-        p.v >= STREET_WIDTH + TREE_MAX_REACH - KERB_OFFSET &&
-        p.u <= BLOCK_PERIOD + KERB_OFFSET - TREE_MAX_REACH &&
-        p.v <= BLOCK_PERIOD + KERB_OFFSET - TREE_MAX_REACH) {
-        /* Inside a block, away from the kerb lines. */
-        return block_at(sc, blocks, p.bi, p.bj)->park ? park_tree(sc, &p, &caches[2]) : NULL;
-    }
-    const tree *a = street_tree(sc, &p, 1, &caches[0]);
-    const tree *b = street_tree(sc, &p, 0, &caches[1]);
-    if (!a || !b)
-        return a ? a : b;
-    return dist2(x, y, a) <= dist2(x, y, b) ? a : b;
+    const tree *t = NULL;
+    if (p.u >= STREET_WIDTH && p.v >= STREET_WIDTH && block_at(sc, blocks, p.bi, p.bj)->park)
+        t = park_tree(sc, &p, &caches[2]);
+    const double reach_in = TREE_MAX_REACH - KERB_OFFSET;   /* street crowns into a block */
+    if (p.u >= STREET_WIDTH + reach_in && p.v >= STREET_WIDTH + reach_in &&
+        p.u <= BLOCK_PERIOD - reach_in && p.v <= BLOCK_PERIOD - reach_in)
+        return t;                /* inside a block, out of the street trees' reach */
+    t = nearer(x, y, t, street_tree(sc, &p, 1, &caches[0]));
+    return nearer(x, y, t, street_tree(sc, &p, 0, &caches[1]));
 }
 
 /* ------------------------------------------------------------ ray tracing */
@@ -514,7 +523,9 @@ static int building_hit(const building *b, const ray *r, hit *h)
     else
         return 0;
     double z = r->za - (wall - r->xa) / r->s;
-    if (z < b->zb || z > top)
+    /* The wall reaches below the base (set at the centre's ground) where the
+     * ground falls away; the caller keeps the hit only above the ground. */
+    if (z < b->zb - 2.0 || z > top)
         return 0;
     h->x = wall, h->z = z, h->material = MAT_WALL;
     return 1;
@@ -601,6 +612,8 @@ static int crown_echoes(rng *g, const ray *r, const hit *solid, double top, doub
     double u2 = rng_unit(g);     /* first-return depth: mostly shallow */
     double first = top - min2(0.8 * u2 * u2, (top - bottom) * 0.5);
     double low = max2(bottom, solid->z + 0.5);
+    if (low > first)             /* a crown barely above the surface */
+        low = first;
     int in_crown = n - last_on_solid;
     /* Returns after the first are spread over equal slices of the chord. */
     for (int i = 0; i < in_crown; i++) {
@@ -781,8 +794,11 @@ static void build_header(emitter *e, wpd_vlr *vlr, uint8_t *vlr_data, char **com
     h->format = e->opt->format;
     if (h->format == WPD_FMT_LAS) {
         wpd_las_info *las = &h->las;
-        las->version_major = 1, las->version_minor = 2, las->pdrf = 3;
-        las->record_length = 34, las->header_size = 227;
+        /* LAS 1.2 holds at most 2^32 - 1 points; beyond, 1.4 (which still
+         * allows point format 3) with its 64-bit counts. */
+        int v14 = e->opt->points > UINT32_MAX;
+        las->version_major = 1, las->version_minor = v14 ? 4 : 2, las->pdrf = 3;
+        las->record_length = L3_SIZE, las->header_size = v14 ? 375 : 227;
         las->global_encoding = 1;               /* adjusted standard GPS time */
         snprintf(las->system_id, sizeof las->system_id, "wpd synth");
         snprintf(las->software, sizeof las->software, "wpd synth");
@@ -801,7 +817,7 @@ static void build_header(emitter *e, wpd_vlr *vlr, uint8_t *vlr_data, char **com
         }
         vlr->data = vlr_data;
         las->nvlr = 1, las->vlrs = vlr;
-        las->offset_to_points = 227 + 54 + (uint32_t)sizeof geo_keys;
+        las->offset_to_points = las->header_size + 54 + (uint32_t)sizeof geo_keys;
         las_schema(&h->schema, las->scale, las->offset);
         e->las = 1;
     } else {
@@ -977,8 +993,8 @@ static int emitter_close(emitter *e, wpd_error *err)
         wpd_writer *w = e->tiles[i].w;
         e->tiles[i].w = NULL;
         if (wpd_writer_close(w, err)) {
-            /* Files already committed stay: they are complete and correct,
-             * but a partial tile set is useless, so remove them. */
+            /* The tiles committed so far are complete, but a partial set is
+             * useless: remove them. */
             for (int j = 0; j < i; j++)
                 remove(e->tiles[j].path);
             return -1;
@@ -998,14 +1014,15 @@ typedef struct flight {
     double *tan_of;                  /* [M]: tangent of the scan angle of step j */
     int8_t *rank_of;                 /* [M]: angle in whole degrees */
     double *gain_of;                 /* [M]: intensity factor of the incidence */
-    int *lo, *hi;                    /* per strip: steps landing in the scene */
+    int *lo, *hi;                    /* per strip: steps landing in or near the scene */
+    int *inside;                     /* per strip: steps landing in the scene */
     double line_spacing;             /* nominal along-track spacing (m) */
     double line_period;              /* seconds per scan line */
 } flight;
 
 static void flight_free(flight *f)
 {
-    free(f->tan_of), free(f->rank_of), free(f->gain_of), free(f->lo), free(f->hi);
+    free(f->tan_of), free(f->rank_of), free(f->gain_of), free(f->lo), free(f->hi), free(f->inside);
     memset(f, 0, sizeof *f);
 }
 
@@ -1041,7 +1058,8 @@ static int flight_plan(flight *f, const scene *sc, uint64_t points)
     f->gain_of = malloc(m * sizeof *f->gain_of);
     f->lo = malloc(f->strips * sizeof *f->lo);
     f->hi = malloc(f->strips * sizeof *f->hi);
-    if (!f->tan_of || !f->rank_of || !f->gain_of || !f->lo || !f->hi)
+    f->inside = malloc(f->strips * sizeof *f->inside);
+    if (!f->tan_of || !f->rank_of || !f->gain_of || !f->lo || !f->hi || !f->inside)
         return -1;
     for (int j = 0; j < m; j++) {
         double a = SCAN_HALF_ANGLE * (2 * (j + 0.5) / m - 1);
@@ -1049,15 +1067,20 @@ static int flight_plan(flight *f, const scene *sc, uint64_t points)
         f->rank_of[j] = (int8_t)lround(a * 180 / 3.14159265358979323846);
         f->gain_of[j] = 0.6 + 0.4 * cos(a);
     }
-    /* Steps whose nominal ground point is within (or near) the scene. */
+    /* Steps whose nominal ground point is near the scene (traced: the
+     * terrain moves the actual one) and in it (the expected yield). */
     for (int i = 0; i < f->strips; i++) {
         double c = strip_centre(f, i);
-        int lo = 0, hi = m;
+        int lo = 0, hi = m, inside = 0;
         while (lo < m && c + f->height * f->tan_of[lo] < -5.0)
             lo++;
         while (hi > lo && c + f->height * f->tan_of[hi - 1] > L + 5.0)
             hi--;
-        f->lo[i] = lo, f->hi[i] = hi;
+        for (int j = lo; j < hi; j++) {
+            double x = c + f->height * f->tan_of[j];
+            inside += x >= 0 && x <= L;
+        }
+        f->lo[i] = lo, f->hi[i] = hi, f->inside[i] = inside;
     }
     return 0;
 }
@@ -1083,10 +1106,10 @@ static double next_line_spacing(const scan *s, int strip, double flown)
     const flight *f = s->fl;
     double need = (double)(s->em->target - s->em->written);
     double per_pulse = (s->echoes + RETURNS_PRIOR * 20000.0) / (s->pulses + 20000.0);
-    double ahead = (double)(f->hi[strip] - f->lo[strip]) * max2(0, s->sc->side - flown);
+    double ahead = (double)f->inside[strip] * max2(0, s->sc->side - flown);
     for (int i = strip + 1; i < f->strips; i++)
-        ahead += (double)(f->hi[i] - f->lo[i]) * s->sc->side;
-    double margin = 3.0 * (f->hi[strip] - f->lo[strip]) * per_pulse;
+        ahead += (double)f->inside[i] * s->sc->side;
+    double margin = 3.0 * f->inside[strip] * per_pulse;
     double dy = ahead * per_pulse / (need + margin);
     return clampd(dy, 0.5 * f->line_spacing, 2.0 * f->line_spacing);
 }
@@ -1189,13 +1212,20 @@ static int fly_strip(scan *s, int strip, int source, wpd_error *err)
     return 0;
 }
 
+/* Flies the strips (again, with new source ids, in the rare case that one
+ * pass falls short) until the target count is written. */
 static int fly(scan *s, wpd_error *err)
 {
     const flight *f = s->fl;
-    for (int pass = 0; s->em->written < s->em->target; pass++)
+    for (int pass = 0; s->em->written < s->em->target; pass++) {
+        uint64_t before = s->em->written;
         for (int i = 0; i < f->strips && s->em->written < s->em->target; i++)
-            if (f->hi[i] > f->lo[i] && fly_strip(s, i, (pass * f->strips + i) % 65535 + 1, err))
+            if (f->inside[i] && fly_strip(s, i, (pass * f->strips + i) % 65535 + 1, err))
                 return -1;
+        if (s->em->written == before)    /* cannot happen: every pass sees the scene */
+            return wpd_fail(err, WPD_E_INPUT, "%s: internal error: a flight pass recorded no points",
+                            s->em->opt->output);
+    }
     return 0;
 }
 
@@ -1291,7 +1321,8 @@ static void usage(FILE *f)
             "\n"
             "  -n N         number of points (suffixes k, M, G: 10^3, 10^6, 10^9)\n"
             "  -o OUT       output file; format from the extension: .las (LAS 1.2,\n"
-            "               point format 3) or .ply (binary little-endian)\n"
+            "               point format 3; LAS 1.4 above 2^32-1 points) or .ply\n"
+            "               (binary little-endian)\n"
             "  --seed S     random seed (default 1); same N and S give the same bytes\n"
             "  --tiles K    write K files OUT_tile1 .. OUT_tileK (1..%d), one per cell\n"
             "               of a near-square grid over the scene\n"
@@ -1299,15 +1330,22 @@ static void usage(FILE *f)
             "  --force      overwrite existing output files\n"
             "  --help       this text\n"
             "\n"
-            "exit status: 0 success, 1 usage error, 2 bad value, 3 I/O error.\n",
+            "exit status: 0 success, 1 usage error (also: OUT exists, no --force),\n"
+            "2 bad value, 3 I/O error.\n",
             WPD_SYNTH_MAX_TILES);
 }
 
-static int cli_fail(int code, const char *fmt, const char *arg)
+static int cli_fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* Prints "wpd synth: <message>" on stderr; returns code. */
+static int cli_fail(int code, const char *fmt, ...)
 {
+    va_list ap;
+    va_start(ap, fmt);
     fprintf(stderr, "wpd synth: ");
-    fprintf(stderr, fmt, arg);
+    vfprintf(stderr, fmt, ap);
     fputc('\n', stderr);
+    va_end(ap);
     return code;
 }
 
@@ -1359,69 +1397,89 @@ static const char *valued_option(const char *arg)
     return NULL;
 }
 
-int wpd_synth_main(int argc, char **argv)
+/* Stores the value v of numeric option name. Returns 0 or an exit status. */
+static int set_number(wpd_synth_options *opt, const char *name, const char *v)
 {
-    wpd_synth_options opt = {.seed = 1, .tiles = 1};
-    int have_n = 0;
+    uint64_t num;
+    if (parse_count(v, &num))
+        return cli_fail(WPD_E_INPUT, "%s: bad number '%s'", name, v);
+    if (!strcmp(name, "--seed")) {
+        opt->seed = num;
+    } else if (!strcmp(name, "-n")) {
+        if (num < 1)
+            return cli_fail(WPD_E_INPUT, "-n: the point count must be at least 1");
+        opt->points = num;
+    } else {
+        if (num < 1 || num > WPD_SYNTH_MAX_TILES)
+            return cli_fail(WPD_E_INPUT, "--tiles: %s is not in 1..%d", v, WPD_SYNTH_MAX_TILES);
+        opt->tiles = (int)num;
+    }
+    return 0;
+}
+
+/* Fills *opt from the command line. Returns -1 to go on, else the exit
+ * status to return (0 after --help). */
+static int parse_args(int argc, char **argv, wpd_synth_options *opt)
+{
     for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v, *name;
-        uint64_t num;
+        const char *a = argv[i], *name, *v;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             usage(stdout);
             return 0;
         } else if (!strcmp(a, "--ascii")) {
-            opt.ply_ascii = 1;
+            opt->ply_ascii = 1;
         } else if (!strcmp(a, "--force")) {
-            opt.overwrite = 1;
+            opt->overwrite = 1;
         } else if ((name = valued_option(a))) {
             if (!(v = option_value(argc, argv, &i, name)))
-                return cli_fail(WPD_E_USAGE, "option %s needs a value (see 'wpd synth --help')", name);
-            if (!strcmp(name, "-o")) {
-                opt.output = v;
-                continue;
-            }
-            if (parse_count(v, &num))
-                return cli_fail(WPD_E_INPUT, "bad number '%s'", v);
-            if (!strcmp(name, "-n")) {
-                if (num < 1)
-                    return cli_fail(WPD_E_INPUT, "point count must be at least 1, not '%s'", v);
-                opt.points = num, have_n = 1;
-            } else if (!strcmp(name, "--seed")) {
-                opt.seed = num;
-            } else if (num < 1 || num > WPD_SYNTH_MAX_TILES) {
-                return cli_fail(WPD_E_INPUT, "tile count '%s' is not in 1..1024", v);
-            } else {
-                opt.tiles = (int)num;
-            }
+                return cli_fail(WPD_E_USAGE, "option %s needs a value (see 'wpd synth --help')",
+                                name);
+            int rc = 0;
+            if (!strcmp(name, "-o"))
+                opt->output = v;
+            else if ((rc = set_number(opt, name, v)))
+                return rc;
         } else {
             return cli_fail(WPD_E_USAGE, "unknown option '%s' (see 'wpd synth --help')", a);
         }
     }
-    if (!have_n || !opt.output)
-        return cli_fail(WPD_E_USAGE, "%s", "need -n N and -o OUT (see 'wpd synth --help')");
+    if (!opt->points || !opt->output)
+        return cli_fail(WPD_E_USAGE, "need -n N and -o OUT (see 'wpd synth --help')");
+    return -1;
+}
+
+static void print_summary(const wpd_synth_options *opt, const wpd_synth_summary *sum)
+{
+    char files[2200];
+    if (sum->files == 1) {
+        snprintf(files, sizeof files, "%s", opt->output);
+    } else {
+        char first[1024], last[1024];
+        wpd_synth_tile_path(opt->output, 1, first, sizeof first);
+        wpd_synth_tile_path(opt->output, sum->files, last, sizeof last);
+        snprintf(files, sizeof files, "%d tiles (%dx%d) %s .. %s", sum->files, sum->columns,
+                 sum->rows, first, last);
+    }
+    printf("wrote %" PRIu64 " points to %s: x %.2f .. %.2f, y %.2f .. %.2f, z %.2f .. %.2f"
+           " (%.0f m scene, %d strips, seed %" PRIu64 ")\n",
+           sum->points, files, sum->min[0], sum->max[0], sum->min[1], sum->max[1], sum->min[2],
+           sum->max[2], sum->side, sum->strips, opt->seed);
+}
+
+int wpd_synth_main(int argc, char **argv)
+{
+    wpd_synth_options opt = {.seed = 1, .tiles = 1};
+    int rc = parse_args(argc, argv, &opt);
+    if (rc >= 0)
+        return rc;
     wpd_error err;
     wpd_error_clear(&err);
     wpd_synth_options checked;
     if (check_options(&opt, &checked, &err))
         return cli_fail(WPD_E_INPUT, "%s", err.msg);
     wpd_synth_summary sum;
-    if (wpd_synth_generate(&checked, &sum, &err)) {
-        fprintf(stderr, "wpd synth: %s\n", err.msg);
-        return err.code ? (int)err.code : WPD_E_IO;
-    }
-    char files[2200];
-    if (sum.files == 1) {
-        snprintf(files, sizeof files, "%s", opt.output);
-    } else {
-        char first[1024], last[1024];
-        wpd_synth_tile_path(opt.output, 1, first, sizeof first);
-        wpd_synth_tile_path(opt.output, sum.files, last, sizeof last);
-        snprintf(files, sizeof files, "%d tiles (%dx%d) %s .. %s", sum.files, sum.columns,
-                 sum.rows, first, last);
-    }
-    printf("wrote %" PRIu64 " points to %s: x %.2f .. %.2f, y %.2f .. %.2f, z %.2f .. %.2f"
-           " (%.0f m scene, %d strips, seed %" PRIu64 ")\n",
-           sum.points, files, sum.min[0], sum.max[0], sum.min[1], sum.max[1], sum.min[2],
-           sum.max[2], sum.side, sum.strips, opt.seed);
+    if (wpd_synth_generate(&checked, &sum, &err))
+        return cli_fail(err.code ? (int)err.code : WPD_E_IO, "%s", err.msg);
+    print_summary(&opt, &sum);
     return 0;
 }

@@ -21,8 +21,9 @@
 #include "common/error.h"
 #include "io/schema.h"
 
-/* Most tile files written at once (each holds an open file and a batch). */
-#define WPD_SYNTH_MAX_TILES 1024
+/* Most tile files written at once: each holds an open file, a batch and
+ * its writer's buffer (about 5 MB per tile with LAS). */
+#define WPD_SYNTH_MAX_TILES 256
 
 typedef struct wpd_synth_options {
     uint64_t points;      /* exact number of points to write, >= 1 */
