@@ -11,6 +11,23 @@
  * The output is a function of (points, seed) only: the same options give the
  * same bytes, whatever the machine load, time or thread count. Splitting into
  * tiles only routes the same points to different files, in the same order.
+ *
+ * What the files hold
+ *  - LAS 1.2 (1.4 above 2^32 - 1 points), point format 3, 34-byte records;
+ *    scale 0.01, offset 500000 4500000 0 (the scene's south-west corner is
+ *    500000 E 4500000 N); system id "wpd synth"; creation day 1 of 2025 (a
+ *    fixed date, for determinism); global encoding 1 (adjusted standard GPS
+ *    time); one GeoKeyDirectory VLR (EPSG:32618, metres).
+ *  - PLY binary little-endian (or ascii), one "vertex" element with, packed
+ *    in this order: double x y z, ushort intensity, uchar return_number,
+ *    uchar number_of_returns, uchar classification, ushort point_source_id,
+ *    double gps_time, uchar red green blue; two "wpd synth" comments.
+ *  - Both: coordinates on the 0.01 m grid (PLY holds the same values);
+ *    classification 2 ground, 5 vegetation, 6 building (roofs and walls),
+ *    7 noise; return_number 1..number_of_returns (<= 5); point_source_id the
+ *    flight strip (1, 2, ...); gps_time non-decreasing in file order; colour
+ *    8-bit in PLY, 16-bit (8-bit * 257) in LAS. LAS only: scan_angle_rank
+ *    -22..22, scan_direction_flag, edge_of_flight_line; user_data 0.
  */
 #ifndef WPD_SYNTH_H
 #define WPD_SYNTH_H
@@ -56,7 +73,8 @@ typedef struct wpd_synth_summary {
  * borders and their counts sum to points). Every file appears under its
  * name only when complete; on failure none of the run's files is left.
  * Returns 0 and fills *summary (if not NULL), or -1 with err set:
- * WPD_E_USAGE for bad options, WPD_E_IO for a write failure. */
+ * WPD_E_USAGE for bad options or an existing output without overwrite,
+ * WPD_E_IO for a failure to create or write, WPD_E_MEMORY. */
 int wpd_synth_generate(const wpd_synth_options *opt, wpd_synth_summary *summary,
                        wpd_error *err);
 
