@@ -1,0 +1,146 @@
+/* knn.c - growing-box kNN search on the sorted-cell grid. */
+#include "core/knn.h"
+
+#include <math.h>
+#include <omp.h>
+
+/* The best candidates so far, sorted by (d2, id). */
+typedef struct knn_heap {
+    int k, cnt;
+    uint32_t self;
+    double max_d2;
+    double d2[WPD_KNN_MAX];
+    uint32_t id[WPD_KNN_MAX];
+    uint32_t slot[WPD_KNN_MAX];
+} knn_heap;
+
+static inline int better(double da, uint32_t ia, double db, uint32_t ib)
+{
+    return da < db || (da == db && ia < ib);
+}
+
+static inline void offer(knn_heap *h, double d2, uint32_t id, uint32_t slot)
+{
+    if (d2 > h->max_d2 || id == h->self)
+        return;
+    if (h->cnt == h->k && !better(d2, id, h->d2[h->k - 1], h->id[h->k - 1]))
+        return;
+    int j = h->cnt < h->k ? h->cnt++ : h->k - 1;
+    while (j > 0 && better(d2, id, h->d2[j - 1], h->id[j - 1])) {
+        h->d2[j] = h->d2[j - 1];
+        h->id[j] = h->id[j - 1];
+        h->slot[j] = h->slot[j - 1];
+        j--;
+    }
+    h->d2[j] = d2;
+    h->id[j] = id;
+    h->slot[j] = slot;
+}
+
+static void scan_slots(const wpd_grid *g, const double q[3], uint32_t b, uint32_t e,
+                       knn_heap *h)
+{
+    for (uint32_t s = b; s < e; s++) {
+        const double *p = g->xyz + 3 * (size_t)s;
+        double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+        offer(h, dx * dx + dy * dy + dz * dz, g->id[s], s);
+    }
+}
+
+/* Offers every point of the cells overlapping [q - rho, q + rho]; when the
+ * box spans more columns than there are points, every point instead.
+ * Returns 1 if every point of the grid was offered. */
+static int scan_box(const wpd_grid *g, const double q[3], double rho, knn_heap *h)
+{
+    int64_t lo[3], hi[3];
+    if (!wpd_grid_box(g, q, rho, lo, hi))
+        return 0;
+    double cols = (double)(hi[0] - lo[0] + 1) * (double)(hi[1] - lo[1] + 1);
+    if (cols > (double)g->n) {
+        scan_slots(g, q, 0, (uint32_t)g->n, h);
+        return 1;
+    }
+    int all = 1;
+    for (int k = 0; k < 3; k++)
+        if (lo[k] > 0 || hi[k] < g->dim[g->axis[k]] - 1)
+            all = 0;
+    for (int64_t b = lo[1]; b <= hi[1]; b++)
+        for (int64_t a = lo[0]; a <= hi[0]; a++) {
+            uint32_t sb, se;
+            wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
+            scan_slots(g, q, sb, se, h);
+        }
+    return all;
+}
+
+/* Scans boxes centred on q, growing until the k-th nearest point lies
+ * within the box's half-width rho: every point outside the box is farther
+ * than rho, so the answer is exact. */
+static int knn_search(const wpd_grid *g, const double q[3], int k, uint32_t self,
+                      double max_dist, double hint, knn_heap *h)
+{
+    h->k = k < 1 ? 1 : k > WPD_KNN_MAX ? WPD_KNN_MAX : k;
+    h->self = self;
+    h->max_d2 = isinf(max_dist) ? INFINITY : max_dist * max_dist;
+    double rho = hint > 0 ? hint : g->cell;
+    if (rho > max_dist)
+        rho = max_dist;
+    for (;;) {
+        h->cnt = 0;
+        if (g->n == 0)
+            return 0;
+        int all = scan_box(g, q, rho, h);
+        if (all || rho >= max_dist)
+            return h->cnt;
+        if (h->cnt == h->k) {
+            double dk = sqrt(h->d2[h->k - 1]);
+            if (dk <= rho)
+                return h->cnt;
+            rho = dk > 1.0001 * rho ? dk : 1.0001 * rho; /* enough next time */
+        } else {
+            rho *= 2;
+        }
+        if (rho > max_dist)
+            rho = max_dist;
+    }
+}
+
+int wpd_knn(const wpd_grid *g, const double q[3], int k, uint32_t self,
+            double max_dist, double hint, uint32_t *idx, double *d2)
+{
+    knn_heap h;
+    int cnt = knn_search(g, q, k, self, max_dist, hint, &h);
+    for (int j = 0; j < cnt; j++) {
+        idx[j] = h.id[j];
+        if (d2)
+            d2[j] = h.d2[j];
+    }
+    return cnt;
+}
+
+int wpd_knn_slots(const wpd_grid *g, const double q[3], int k, uint32_t self,
+                  double max_dist, double hint, uint32_t *slot, double *d2)
+{
+    knn_heap h;
+    int cnt = knn_search(g, q, k, self, max_dist, hint, &h);
+    for (int j = 0; j < cnt; j++) {
+        slot[j] = h.slot[j];
+        if (d2)
+            d2[j] = h.d2[j];
+    }
+    return cnt;
+}
+
+void wpd_knn_many(const wpd_grid *g, const double *qxyz, const uint32_t *self,
+                  size_t nq, int k, double max_dist, uint32_t *idx, double *d2,
+                  uint8_t *count, int threads)
+{
+    if (threads <= 0)
+        threads = omp_get_max_threads();
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
+    for (size_t i = 0; i < nq; i++) {
+        int got = wpd_knn(g, qxyz + 3 * i, k, self ? self[i] : WPD_NO_SELF, max_dist, 0,
+                          idx + i * (size_t)k, d2 ? d2 + i * (size_t)k : NULL);
+        count[i] = (uint8_t)got;
+    }
+}

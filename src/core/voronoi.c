@@ -1,0 +1,101 @@
+/* voronoi.c - clipping a square by perpendicular bisectors. */
+#include "core/voronoi.h"
+
+#include <math.h>
+#include <string.h>
+
+#define FRAME_EDGE (-1)
+#define POLY_MAX (WPD_VORONOI_MAX_NB + 8)
+
+typedef struct polygon {
+    int n;
+    double x[POLY_MAX], y[POLY_MAX];
+    int label[POLY_MAX]; /* line carrying the edge from vertex i to i+1 */
+} polygon;
+
+/* Keeps the part of poly with a*x + b*y <= c; the new edge gets `label`. */
+static void clip(polygon *poly, double a, double b, double c, int label)
+{
+    polygon out;
+    out.n = 0;
+    int n = poly->n;
+    for (int i = 0; i < n; i++) {
+        int j = i + 1 == n ? 0 : i + 1;
+        double si = a * poly->x[i] + b * poly->y[i] - c;
+        double sj = a * poly->x[j] + b * poly->y[j] - c;
+        int in_i = si <= 0, in_j = sj <= 0;
+        if (in_i) {
+            out.x[out.n] = poly->x[i];
+            out.y[out.n] = poly->y[i];
+            out.label[out.n++] = poly->label[i];
+        }
+        if (in_i != in_j && out.n < POLY_MAX) {
+            double t = si / (si - sj);
+            out.x[out.n] = poly->x[i] + t * (poly->x[j] - poly->x[i]);
+            out.y[out.n] = poly->y[i] + t * (poly->y[j] - poly->y[i]);
+            /* Leaving: the boundary continues along the clip line. Entering:
+             * it continues along the edge that was cut. */
+            out.label[out.n++] = in_i ? label : poly->label[i];
+        }
+    }
+    *poly = out;
+}
+
+void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell *cell)
+{
+    if (m > WPD_VORONOI_MAX_NB)
+        m = WPD_VORONOI_MAX_NB;
+    memset(cell, 0, sizeof *cell);
+    if (frame <= 0)
+        for (int j = 0; j < m; j++)
+            frame = fmax(frame, sqrt(q[2 * j] * q[2 * j] + q[2 * j + 1] * q[2 * j + 1]));
+    if (!(frame > 0))
+        return;
+    polygon poly = {4, {-frame, frame, frame, -frame}, {-frame, -frame, frame, frame},
+                    {FRAME_EDGE, FRAME_EDGE, FRAME_EDGE, FRAME_EDGE}};
+    double tiny = 1e-24 * frame * frame;
+    for (int j = 0; j < m && poly.n > 0; j++) {
+        double qx = q[2 * j], qy = q[2 * j + 1];
+        double q2 = qx * qx + qy * qy;
+        if (q2 <= tiny)
+            continue;
+        clip(&poly, qx, qy, 0.5 * q2, j);
+    }
+    if (poly.n < 3)
+        return;
+    cell->closed = 1;
+    double area2 = 0;
+    for (int i = 0; i < poly.n; i++) {
+        int k = i + 1 == poly.n ? 0 : i + 1;
+        double ex = poly.x[k] - poly.x[i], ey = poly.y[k] - poly.y[i];
+        area2 += poly.x[i] * poly.y[k] - poly.x[k] * poly.y[i];
+        if (poly.label[i] == FRAME_EDGE)
+            cell->closed = 0;
+        else
+            cell->edge[poly.label[i]] += sqrt(ex * ex + ey * ey);
+    }
+    cell->area = 0.5 * fabs(area2);
+}
+
+int wpd_cotan_average(const double *q, int m, const wpd_voronoi_cell *cell, double out[2])
+{
+    if (!cell->closed)
+        return 0;
+    if (m > WPD_VORONOI_MAX_NB)
+        m = WPD_VORONOI_MAX_NB;
+    double sw = 0, sx = 0, sy = 0;
+    for (int j = 0; j < m; j++) {
+        if (cell->edge[j] <= 0)
+            continue;
+        double len = sqrt(q[2 * j] * q[2 * j] + q[2 * j + 1] * q[2 * j + 1]);
+        double w = cell->edge[j] / len;
+        sw += w;
+        sx += w * q[2 * j];
+        sy += w * q[2 * j + 1];
+    }
+    if (!(sw > 0))
+        return 0;
+    out[0] = sx / sw;
+    out[1] = sy / sw;
+    return 1;
+}

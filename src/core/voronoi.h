@@ -1,0 +1,34 @@
+/* voronoi.h - the Voronoi cell of one point among its neighbours, in its
+ * tangent plane, and the cotangent weights that follow from it (paper
+ * eq. 7-8).
+ *
+ * The point sits at the origin of the plane; its neighbours are 2-D points
+ * q_j. The cell starts as a square frame and is clipped by the perpendicular
+ * bisector of every (origin, q_j). An edge of the final cell that lies on
+ * the bisector of q_j makes j a Voronoi neighbour with weight
+ *   w_j = |edge_j| / |q_j|  ( = (cot alpha + cot beta) / 2 ).
+ * A cell that still touches the frame is open: its point lies on a boundary
+ * of the sampling, where the weighted average would pull it inwards.
+ */
+#ifndef WPD_CORE_VORONOI_H
+#define WPD_CORE_VORONOI_H
+
+#define WPD_VORONOI_MAX_NB 64
+
+typedef struct wpd_voronoi_cell {
+    int closed;                          /* 0: the cell touches the frame */
+    double area;                         /* area of the (clipped) cell */
+    double edge[WPD_VORONOI_MAX_NB];     /* edge length on each bisector */
+} wpd_voronoi_cell;
+
+/* Computes the cell of the origin among m (<= WPD_VORONOI_MAX_NB) neighbours
+ * q[2j], q[2j+1]. frame is the half-width of the initial square; <= 0 means
+ * the largest |q_j|. Neighbours at the origin itself are ignored. */
+void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell *cell);
+
+/* The cotangent-weighted average of the neighbours (eq. 8):
+ * sum_j w_j q_j / sum_j w_j, with w_j = edge_j / |q_j|. Returns 1 and sets
+ * out, or 0 (out untouched) when the cell is open or has no weight. */
+int wpd_cotan_average(const double *q, int m, const wpd_voronoi_cell *cell, double out[2]);
+
+#endif
