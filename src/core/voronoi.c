@@ -5,7 +5,7 @@
 #include <string.h>
 
 #define FRAME_EDGE (-1)
-#define POLY_MAX (WPD_VORONOI_MAX_NB + 8)
+#define POLY_MAX WPD_VORONOI_MAX_VERTS
 
 typedef struct polygon {
     int n;
@@ -64,17 +64,31 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
     if (poly.n < 3)
         return;
     cell->closed = 1;
-    double area2 = 0;
+    cell->nverts = poly.n;
+    double area2 = 0, cx = 0, cy = 0, mx = 0, my = 0;
     for (int i = 0; i < poly.n; i++) {
         int k = i + 1 == poly.n ? 0 : i + 1;
         double ex = poly.x[k] - poly.x[i], ey = poly.y[k] - poly.y[i];
-        area2 += poly.x[i] * poly.y[k] - poly.x[k] * poly.y[i];
+        double cross = poly.x[i] * poly.y[k] - poly.x[k] * poly.y[i];
+        area2 += cross;
+        cx += (poly.x[i] + poly.x[k]) * cross;
+        cy += (poly.y[i] + poly.y[k]) * cross;
+        mx += poly.x[i];
+        my += poly.y[i];
+        cell->vx[i] = poly.x[i];
+        cell->vy[i] = poly.y[i];
         if (poly.label[i] == FRAME_EDGE)
             cell->closed = 0;
         else
             cell->edge[poly.label[i]] += sqrt(ex * ex + ey * ey);
     }
     cell->area = 0.5 * fabs(area2);
+    if (area2 != 0) {
+        cell->centroid[0] = cx / (3 * area2);
+        cell->centroid[1] = cy / (3 * area2);
+    }
+    cell->vertex_mean[0] = mx / poly.n;
+    cell->vertex_mean[1] = my / poly.n;
 }
 
 int wpd_cotan_average(const double *q, int m, const wpd_voronoi_cell *cell, double out[2])

@@ -9,15 +9,29 @@
  *   w_j = |edge_j| / |q_j|  ( = (cot alpha + cot beta) / 2 ).
  * A cell that still touches the frame is open: its point lies on a boundary
  * of the sampling, where the weighted average would pull it inwards.
+ *
+ * Note on eq. 8: for a closed cell the edges e_j with outward unit normals
+ * q_j / |q_j| close up, sum_j e_j q_j / |q_j| = 0, so the cotangent-weighted
+ * average of the neighbours is the point itself (the cotangent Laplacian
+ * reproduces linear functions): taken literally, eq. 8 never moves a point
+ * within its tangent plane. The Lloyd / CVT step the paper builds on moves
+ * it to the area centroid of its cell instead; the authors' release moves it
+ * to the plain mean of the cell's vertices. All three are provided.
  */
 #ifndef WPD_CORE_VORONOI_H
 #define WPD_CORE_VORONOI_H
 
 #define WPD_VORONOI_MAX_NB 64
 
+#define WPD_VORONOI_MAX_VERTS (WPD_VORONOI_MAX_NB + 8)
+
 typedef struct wpd_voronoi_cell {
     int closed;                          /* 0: the cell touches the frame */
     double area;                         /* area of the (clipped) cell */
+    double centroid[2];                  /* its area centroid */
+    double vertex_mean[2];               /* mean of its vertices */
+    int nverts;
+    double vx[WPD_VORONOI_MAX_VERTS], vy[WPD_VORONOI_MAX_VERTS]; /* counter-clockwise */
     double edge[WPD_VORONOI_MAX_NB];     /* edge length on each bisector */
 } wpd_voronoi_cell;
 
@@ -26,7 +40,8 @@ typedef struct wpd_voronoi_cell {
  * the largest |q_j|. Neighbours at the origin itself are ignored. */
 void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell *cell);
 
-/* The cotangent-weighted average of the neighbours (eq. 8):
+/* The cotangent-weighted average of the neighbours (eq. 8; see the note
+ * above: it is the origin, up to rounding, whenever the cell is closed):
  * sum_j w_j q_j / sum_j w_j, with w_j = edge_j / |q_j|. Returns 1 and sets
  * out, or 0 (out untouched) when the cell is open or has no weight. */
 int wpd_cotan_average(const double *q, int m, const wpd_voronoi_cell *cell, double out[2]);

@@ -1,0 +1,85 @@
+/* smooth.h - weighted tangent smoothing (paper eq. 7-8), kept on the
+ * scanned surface.
+ *
+ * Once, before the iterations: each sample's k nearest neighbours (among the
+ * samples and the context samples of neighbouring blocks) and its PCA
+ * normal over itself and those neighbours. Then, per iteration, for every
+ * sample at once (Jacobi: all read the previous iteration's positions, so
+ * the result does not depend on threads): the neighbours are projected on
+ * the sample's tangent plane, its Voronoi cell among them is clipped out of
+ * a square frame (core/voronoi.h), and the sample moves to a centre of that
+ * cell (see wpd_smooth_mode: eq. 8 taken literally never moves a point, so
+ * the default is the Lloyd / CVT step the paper derives it from). A sample
+ * whose cell is open (still touches the frame: it lies on a border of the
+ * sampling) does not move, nor does a sharp-feature sample with a normal
+ * (non-sharp) neighbour.
+ *
+ * The paper moves samples within their tangent planes only, so on a curved
+ * surface they drift off it, a little more each iteration. Here, when the
+ * input points are given, a moved sample is put back on the surface: onto
+ * the PCA plane of the k input points nearest to its new position.
+ */
+#ifndef WPD_SMOOTH_H
+#define WPD_SMOOTH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+#include "core/grid.h"
+
+/* Where a sample moves within its tangent-plane Voronoi cell. */
+typedef enum wpd_smooth_mode {
+    WPD_SMOOTH_CENTROID = 0,    /* area centroid of the cell: a Lloyd / CVT step */
+    WPD_SMOOTH_VERTEX_MEAN = 1, /* mean of the cell's vertices (the authors' release) */
+    WPD_SMOOTH_COTAN = 2        /* cotangent-weighted mean of the Voronoi neighbours,
+                                   eq. 7-8 as printed: the point itself for every
+                                   closed cell (core/voronoi.h), kept for comparison */
+} wpd_smooth_mode;
+
+typedef struct wpd_smooth_input {
+    double *xyz;             /* [3n] sample positions: read, then replaced */
+    size_t n;
+    const uint8_t *edge;     /* per sample: sharp-feature label, or NULL */
+    const double *ctx_xyz;   /* samples of neighbouring blocks: neighbours only */
+    size_t nctx;
+    const wpd_grid *surface; /* grid over the input points, or NULL: no projection */
+    double surface_hint;     /* guess of the distance to the k-th nearest input
+                                point (a search radius; 0: the grid's cell) */
+    wpd_smooth_mode mode;
+    int k;                   /* neighbours per sample (13), 3..WPD_KNN_MAX */
+    int iterations;          /* 5 */
+    double spacing;          /* typical sample spacing (the radius): grid hint */
+    int threads;             /* <= 0: OpenMP default */
+} wpd_smooth_input;
+
+typedef struct wpd_smooth_stats {
+    size_t open_cells;       /* samples kept fixed for an open cell (last iteration) */
+    size_t sharp_fixed;      /* sharp-feature samples kept fixed */
+    double mean_move;        /* mean distance moved per sample over all iterations,
+                                in units of spacing */
+    double normals_seconds;  /* neighbour search and normals */
+    double smooth_seconds;   /* the iterations */
+} wpd_smooth_stats;
+
+/* Smooths in->xyz in place. Returns 0, or -1 with err set. */
+int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *err);
+
+/* How far samples are from the scanned surface, in units of the input's
+ * local spacing s = sqrt(pi d_k^2 / k) (d_k: distance from the sample to its
+ * k-th nearest input point, so s is the side of the square each input point
+ * covers there). */
+typedef struct wpd_drift {
+    size_t n;
+    double mean_nearest;     /* mean distance to the nearest input point / s */
+    double max_nearest;
+    double frac_beyond;      /* fraction of samples farther than s from every input point */
+    double mean_plane;       /* mean distance to the PCA plane of the k nearest input points / s */
+    double max_plane;
+} wpd_drift;
+
+/* Measures the drift of n samples at xyz against the input grid. */
+void wpd_measure_drift(const wpd_grid *surface, const double *xyz, size_t n, int k,
+                       int threads, wpd_drift *out);
+
+#endif
