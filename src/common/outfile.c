@@ -44,11 +44,13 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
     return 0;
 }
 
-int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *err)
+/* Writes all len bytes at offset off, or at the current position when off
+ * is negative; retries short writes and EINTR. */
+static int write_all(wpd_outfile *f, const void *buf, size_t len, long long off, wpd_error *err)
 {
     const char *p = buf;
     while (len) {
-        ssize_t w = write(f->fd, p, len);
+        ssize_t w = off < 0 ? write(f->fd, p, len) : pwrite(f->fd, p, len, (off_t)off);
         if (w < 0 && errno == EINTR)
             continue;
         if (w <= 0) {
@@ -58,28 +60,21 @@ int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *er
         }
         p += w;
         len -= (size_t)w;
+        if (off >= 0)
+            off += w;
     }
     return 0;
+}
+
+int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *err)
+{
+    return write_all(f, buf, len, -1, err);
 }
 
 int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long off,
                        wpd_error *err)
 {
-    const char *p = buf;
-    while (len) {
-        ssize_t w = pwrite(f->fd, p, len, (off_t)off);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            if (w == 0)
-                errno = ENOSPC;
-            return wpd_fail_errno(err, "%s: write failed", f->final_path);
-        }
-        p += w;
-        off += w;
-        len -= (size_t)w;
-    }
-    return 0;
+    return write_all(f, buf, len, off < 0 ? 0 : off, err);
 }
 
 int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)

@@ -1007,22 +1007,6 @@ static int locate_binary_vertices(wpd_reader *r, ply_reader *pr, wpd_error *err)
 
 /* ------------------------------------------------------------------ decoding */
 
-static double field_value(const uint8_t *p, wpd_type t)
-{
-    switch (t) {
-    case WPD_I8: return (int8_t)p[0];
-    case WPD_U8: return p[0];
-    case WPD_I16: { int16_t v; memcpy(&v, p, 2); return v; }
-    case WPD_U16: { uint16_t v; memcpy(&v, p, 2); return v; }
-    case WPD_I32: { int32_t v; memcpy(&v, p, 4); return v; }
-    case WPD_U32: { uint32_t v; memcpy(&v, p, 4); return v; }
-    case WPD_I64: { int64_t v; memcpy(&v, p, 8); return (double)v; }
-    case WPD_U64: { uint64_t v; memcpy(&v, p, 8); return (double)v; }
-    case WPD_F32: { float v; memcpy(&v, p, 4); return v; }
-    default: { double v; memcpy(&v, p, 8); return v; }
-    }
-}
-
 /* Keeps a decoded point: moves its record down to slot kept (when points
  * before it were dropped) and stores its coordinates. */
 #define KEEP_OR_DROP(x, y, z)                                              \
@@ -1068,9 +1052,9 @@ static size_t decode_points(const ply_reader *pr, uint8_t *rec, double *xyz, siz
     } else {
         for (size_t i = 0; i < n; i++) {
             const uint8_t *p = rec + i * rs;
-            double dx = field_value(p + ox, c[0].type);
-            double dy = field_value(p + oy, c[1].type);
-            double dz = c[2].present ? field_value(p + oz, c[2].type) : 0.0;
+            double dx = wpd_value_get(c[0].type, p + ox);
+            double dy = wpd_value_get(c[1].type, p + oy);
+            double dz = c[2].present ? wpd_value_get(c[2].type, p + oz) : 0.0;
             KEEP_OR_DROP(dx, dy, dz);
         }
     }

@@ -68,12 +68,7 @@ wpd_reader *wpd_reader_open(const char *path, wpd_error *err)
     if (rc == 0)
         return r;
 fail:
-    if (r->ops && r->ops->close)
-        r->ops->close(r);
-    if (r->fd >= 0)
-        close(r->fd);
-    wpd_header_free(&r->hdr);
-    free(r);
+    wpd_reader_close(r);
     return NULL;
 }
 

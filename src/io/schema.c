@@ -69,14 +69,6 @@ static int64_t field_int(wpd_type t, const uint8_t *p)
     }
 }
 
-static double field_get(wpd_type t, const uint8_t *p)
-{
-    if (t == WPD_F32) { float v; memcpy(&v, p, 4); return v; }
-    if (t == WPD_F64) { double v; memcpy(&v, p, 8); return v; }
-    if (t == WPD_U64) { uint64_t v; memcpy(&v, p, 8); return (double)v; }
-    return (double)field_int(t, p);
-}
-
 double wpd_dim_get(const wpd_dim *d, const uint8_t *record)
 {
     const uint8_t *p = record + d->offset;
@@ -85,7 +77,7 @@ double wpd_dim_get(const wpd_dim *d, const uint8_t *record)
         uint64_t raw = (uint64_t)field_int(d->type, p);
         v = (double)((raw >> d->bit_shift) & ((1ull << d->bit_count) - 1));
     } else {
-        v = field_get(d->type, p);
+        v = wpd_value_get(d->type, p);
     }
     return d->scaled ? v * d->scale + d->add : v;
 }

@@ -119,6 +119,24 @@ int wpd_schema_add(wpd_schema *s, const char *name, wpd_type type, uint32_t offs
 /* Index of the dimension called name, or -1. */
 int wpd_schema_find(const wpd_schema *s, const char *name);
 
+/* Raw little-endian value of type t at p as a double (no bit field, no
+ * scale). Inline: it sits in the coordinate decode loops of the readers. */
+static inline double wpd_value_get(wpd_type t, const uint8_t *p)
+{
+    switch (t) {
+    case WPD_I8: return (int8_t)p[0];
+    case WPD_U8: return p[0];
+    case WPD_I16: { int16_t v; __builtin_memcpy(&v, p, 2); return v; }
+    case WPD_U16: { uint16_t v; __builtin_memcpy(&v, p, 2); return v; }
+    case WPD_I32: { int32_t v; __builtin_memcpy(&v, p, 4); return v; }
+    case WPD_U32: { uint32_t v; __builtin_memcpy(&v, p, 4); return v; }
+    case WPD_I64: { int64_t v; __builtin_memcpy(&v, p, 8); return (double)v; }
+    case WPD_U64: { uint64_t v; __builtin_memcpy(&v, p, 8); return (double)v; }
+    case WPD_F32: { float v; __builtin_memcpy(&v, p, 4); return v; }
+    default: { double v; __builtin_memcpy(&v, p, 8); return v; }
+    }
+}
+
 /* Reads dimension d of one record as a double (bit field, scale applied). */
 double wpd_dim_get(const wpd_dim *d, const uint8_t *record);
 /* Stores v into dimension d of one record: rounds for integer types, clamps
