@@ -10,6 +10,7 @@
 
 int wpd_cmd_info(int argc, char **argv);
 int wpd_cmd_convert(int argc, char **argv);
+int wpd_cmd_resample(int argc, char **argv);
 
 /* Prints "wpd <command>: <msg>" on stderr and returns err->code. */
 int wpd_report_error(const char *command, const wpd_error *err);

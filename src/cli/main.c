@@ -15,6 +15,7 @@ typedef struct command {
 static const command commands[] = {
     {"info", wpd_cmd_info, "describe LAS/PLY files: format, count, bounds, schema, VLRs"},
     {"convert", wpd_cmd_convert, "stream points from one file (or several) into LAS or PLY"},
+    {"resample", wpd_cmd_resample, "resample to exactly N points (Weighted Poisson-disk)"},
     {"synth", wpd_synth_main, "generate a synthetic city-like LiDAR scan of any size"},
     {"metrics", wpd_metrics_main, "quality of a resampling: distances, density, spacing"},
 };
