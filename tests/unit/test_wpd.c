@@ -1,0 +1,575 @@
+/* test_wpd.c - the WPD pipeline on synthetic scan-like blocks: radius,
+ * Poisson pass, refinement, exact count, smoothing, sharp features,
+ * determinism. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/grid.h"
+#include "core/hash.h"
+#include "core/knn.h"
+#include "core/pca.h"
+#include "core/voronoi.h"
+#include "harness.h"
+#include "wpd/exact.h"
+#include "wpd/poisson.h"
+#include "wpd/radius.h"
+#include "wpd/refine.h"
+#include "wpd/sharp.h"
+#include "wpd/smooth.h"
+#include "wpd/wpd.h"
+
+static double unit(uint64_t *state)
+{
+    *state = wpd_mix64(*state + 0x9e3779b97f4a7c15ULL);
+    return (double)(*state >> 11) * 0x1p-53;
+}
+
+typedef struct scan {
+    size_t n;
+    double *xyz;
+    uint64_t *gid;
+} scan;
+
+static void scan_free(scan *s)
+{
+    free(s->xyz);
+    free(s->gid);
+}
+
+static void put(scan *s, size_t cap, double x, double y, double z)
+{
+    if (s->n < cap) {
+        s->xyz[3 * s->n] = x;
+        s->xyz[3 * s->n + 1] = y;
+        s->xyz[3 * s->n + 2] = z;
+        s->n++;
+    }
+}
+
+/* A small airborne-like scene: rolling terrain on jittered scan lines, a
+ * box building (walls and a flat roof) and a few noise points. Global
+ * indices are large and not in point order. */
+static scan scene(double spacing, uint64_t seed)
+{
+    size_t cap = 200000;
+    scan s = {0, malloc(3 * cap * sizeof(double)), NULL};
+    uint64_t st = seed;
+    for (double y = 0; y < 40; y += spacing)
+        for (double x = 0; x < 60; x += spacing) {
+            double jx = x + 0.3 * spacing * (unit(&st) - 0.5), jy = y + 0.3 * spacing * (unit(&st) - 0.5);
+            if (jx > 20 && jx < 30 && jy > 10 && jy < 20)
+                continue; /* under the building */
+            put(&s, cap, jx, jy, 0.5 * sin(jx / 7) + 0.3 * cos(jy / 5) + 0.01 * unit(&st));
+        }
+    for (double z = 0; z < 8; z += spacing)
+        for (double t = 0; t < 40; t += spacing) {
+            double x, y;
+            if (t < 10) { x = 20 + t; y = 10; }
+            else if (t < 20) { x = 30; y = 10 + (t - 10); }
+            else if (t < 30) { x = 30 - (t - 20); y = 20; }
+            else { x = 20; y = 20 - (t - 30); }
+            put(&s, cap, x, y, z + 0.2 * spacing * unit(&st));
+        }
+    for (double y = 10; y <= 20; y += spacing)
+        for (double x = 20; x <= 30; x += spacing)
+            put(&s, cap, x + 0.2 * spacing * unit(&st), y, 8);
+    for (int i = 0; i < 20; i++)
+        put(&s, cap, 60 * unit(&st), 40 * unit(&st), 15 + 10 * unit(&st));
+    s.gid = malloc(s.n * sizeof *s.gid);
+    for (size_t i = 0; i < s.n; i++)
+        s.gid[i] = 1000000000000ULL + wpd_mix64(i ^ seed) % 1000000007ULL * 4096 + i % 4096;
+    return s;
+}
+
+static size_t close_pairs(const double *xyz, const uint32_t *idx, size_t m, double r)
+{
+    size_t bad = 0;
+    for (size_t a = 0; a < m; a++)
+        for (size_t b = a + 1; b < m; b++) {
+            const double *p = xyz + 3 * (size_t)idx[a], *q = xyz + 3 * (size_t)idx[b];
+            double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+            bad += dx * dx + dy * dy + dz * dz < r * r;
+        }
+    return bad;
+}
+
+TEST(wpd_poisson_keeps_samples_r_apart_and_covers_the_input)
+{
+    scan s = scene(0.5, 1);
+    size_t n = 3000; /* a brute-force check on the first few thousand points */
+    uint32_t *out = malloc(n * sizeof *out);
+    wpd_error err;
+    double r = 1.5;
+    wpd_poisson_input in = {s.xyz, s.gid, NULL, NULL, n, NULL, 0, r, 42, 2};
+    long got = wpd_poisson_pass(&in, out, &err);
+    CHECK(got > 10 && got < (long)n);
+    CHECK_MSG(close_pairs(s.xyz, out, (size_t)got, r) == 0, "samples closer than r");
+    for (long i = 1; i < got; i++)
+        CHECK(out[i - 1] < out[i]);
+    /* Maximal: every input point is within r of a sample. */
+    size_t uncovered = 0;
+    for (size_t i = 0; i < n; i++) {
+        int covered = 0;
+        for (long j = 0; j < got && !covered; j++) {
+            const double *p = s.xyz + 3 * i, *q = s.xyz + 3 * (size_t)out[j];
+            double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+            covered = dx * dx + dy * dy + dz * dz < r * r;
+        }
+        uncovered += !covered;
+    }
+    CHECK_MSG(uncovered == 0, "%zu input points farther than r from every sample", uncovered);
+    free(out);
+    scan_free(&s);
+}
+
+TEST(wpd_poisson_result_depends_on_global_indices_not_point_order)
+{
+    scan s = scene(0.5, 2);
+    size_t n = s.n;
+    /* The same points in reversed order, with their global indices. */
+    double *rxyz = malloc(3 * n * sizeof *rxyz);
+    uint64_t *rgid = malloc(n * sizeof *rgid);
+    for (size_t i = 0; i < n; i++) {
+        memcpy(rxyz + 3 * i, s.xyz + 3 * (n - 1 - i), 3 * sizeof(double));
+        rgid[i] = s.gid[n - 1 - i];
+    }
+    uint32_t *a = malloc(n * 4), *b = malloc(n * 4);
+    wpd_error err;
+    wpd_poisson_input in = {s.xyz, s.gid, NULL, NULL, n, NULL, 0, 1.2, 7, 1};
+    long ga = wpd_poisson_pass(&in, a, &err);
+    wpd_poisson_input rin = {rxyz, rgid, NULL, NULL, n, NULL, 0, 1.2, 7, 2};
+    long gb = wpd_poisson_pass(&rin, b, &err);
+    CHECK(ga == gb && ga > 0);
+    uint64_t *ka = malloc(n * 8), *kb = malloc(n * 8);
+    for (long i = 0; i < ga && i < gb; i++) {
+        ka[i] = s.gid[a[i]];
+        kb[i] = rgid[b[i]];
+    }
+    size_t same = 0;
+    for (long i = 1; i < ga; i++)
+        for (long j = i; j > 0 && ka[j] < ka[j - 1]; j--) {
+            uint64_t t = ka[j]; ka[j] = ka[j - 1]; ka[j - 1] = t;
+        }
+    for (long i = 1; i < gb; i++)
+        for (long j = i; j > 0 && kb[j] < kb[j - 1]; j--) {
+            uint64_t t = kb[j]; kb[j] = kb[j - 1]; kb[j - 1] = t;
+        }
+    for (long i = 0; i < ga && i < gb; i++)
+        same += ka[i] == kb[i];
+    CHECK_MSG(same == (size_t)ga, "%zu of %ld samples agree", same, ga);
+    /* A different seed gives a different sample. */
+    in.seed = 8;
+    long gc = wpd_poisson_pass(&in, b, &err);
+    CHECK(gc > 0 && (gc != ga || memcmp(a, b, (size_t)ga * 4) != 0));
+    free(rxyz); free(rgid); free(a); free(b); free(ka); free(kb);
+    scan_free(&s);
+}
+
+TEST(wpd_poisson_respects_neighbour_samples)
+{
+    scan s = scene(0.5, 3);
+    size_t n = 3000;
+    double fixed[3 * 4];
+    for (int f = 0; f < 4; f++)
+        memcpy(fixed + 3 * f, s.xyz + 3 * (size_t)(100 + 700 * f), 3 * sizeof(double));
+    uint32_t *out = malloc(n * 4);
+    wpd_error err;
+    double r = 1.5;
+    wpd_poisson_input in = {s.xyz, s.gid, NULL, NULL, n, fixed, 4, r, 5, 2};
+    long got = wpd_poisson_pass(&in, out, &err);
+    CHECK(got > 0);
+    size_t bad = 0;
+    for (long i = 0; i < got; i++)
+        for (int f = 0; f < 4; f++) {
+            const double *p = s.xyz + 3 * (size_t)out[i], *q = fixed + 3 * f;
+            double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+            bad += dx * dx + dy * dy + dz * dz < r * r;
+        }
+    CHECK_MSG(bad == 0, "%zu samples within r of a neighbour sample", bad);
+    free(out);
+    scan_free(&s);
+}
+
+TEST(wpd_poisson_context_reruns_match_one_shot_passes)
+{
+    scan s = scene(0.5, 4);
+    wpd_error err;
+    uint32_t *a = malloc(s.n * 4), *b = malloc(s.n * 4);
+    wpd_poisson_input in = {s.xyz, s.gid, NULL, NULL, s.n, NULL, 0, 1.0, 9, 2};
+    wpd_poisson *ps = wpd_poisson_prepare(&in, &err);
+    CHECK(ps != NULL);
+    double radii[3] = {1.0, 1.3, 2.5}; /* the last one rebuilds the grid */
+    for (int k = 0; k < 3; k++) {
+        long ga = wpd_poisson_run(ps, radii[k], a, &err);
+        in.r = radii[k];
+        long gb = wpd_poisson_pass(&in, b, &err);
+        CHECK_MSG(ga == gb && memcmp(a, b, (size_t)ga * 4) == 0, "radius %g: %ld vs %ld",
+                  radii[k], ga, gb);
+    }
+    wpd_poisson_release(ps);
+    free(a);
+    free(b);
+    scan_free(&s);
+}
+
+TEST(wpd_refine_follows_eq_6)
+{
+    wpd_refine st;
+    wpd_refine_init(&st, 1000, 2.0, 10);
+    CHECK(wpd_refine_report(&st, 800) == WPD_REFINE_AGAIN); /* R = 0.2 */
+    CHECK(fabs(st.r - 2.0 * (1 - 0.2 / 1.8)) < 1e-12);
+    CHECK(!wpd_refine_can_prune(&st));
+    double r = st.r;
+    CHECK(wpd_refine_report(&st, 1200) == WPD_REFINE_AGAIN); /* R = -0.2, mu = 0 */
+    CHECK(fabs(st.r - r * (1 + 0.2 / 3.0)) < 1e-12);
+    CHECK(wpd_refine_can_prune(&st));
+    r = st.r;
+    CHECK(wpd_refine_report(&st, 1100) == WPD_REFINE_AGAIN); /* mu = 0.5 now */
+    CHECK(fabs(st.r - r * (1 + 0.1 / 3.5)) < 1e-12);
+    CHECK(wpd_refine_report(&st, 1050) == WPD_REFINE_DONE);
+    wpd_refine_init(&st, 10, 1.0, 2);
+    CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_AGAIN);
+    CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_GAVE_UP);
+}
+
+static int run(const scan *s, size_t target, const wpd_params *p, wpd_result *r)
+{
+    wpd_block b = {s->n, s->xyz, s->gid, NULL, 0, NULL, 0, NULL, 0};
+    wpd_error err;
+    int rc = wpd_run_block(&b, target, p, r, &err);
+    if (rc < 0)
+        fprintf(stderr, "  wpd_run_block: %s\n", err.msg);
+    return rc;
+}
+
+TEST(wpd_refinement_lands_within_five_percent)
+{
+    scan s = scene(0.4, 5);
+    wpd_params p;
+    wpd_params_default(&p);
+    p.smooth = 0;
+    size_t targets[4] = {50, 500, 2000, 5000};
+    for (int m = 0; m < 2; m++) {
+        p.radius_method = m ? WPD_RADIUS_MULTISCALE : WPD_RADIUS_PAPER;
+        for (int t = 0; t < 4; t++) {
+            wpd_result r;
+            CHECK(run(&s, targets[t], &p, &r) == 0);
+            CHECK_MSG(r.poisson_count >= targets[t] && r.poisson_count <= 1.05 * targets[t],
+                      "method %d target %zu: %zu after %d passes", m, targets[t], r.poisson_count,
+                      r.passes);
+            wpd_result_free(&r);
+        }
+    }
+    scan_free(&s);
+}
+
+TEST(wpd_exact_count_for_any_target)
+{
+    scan s = scene(0.4, 6);
+    wpd_params p;
+    wpd_params_default(&p);
+    size_t targets[4] = {1, 1000, s.n / 10, s.n / 2};
+    for (int t = 0; t < 4; t++) {
+        wpd_result r;
+        CHECK(run(&s, targets[t], &p, &r) == 0);
+        CHECK_MSG(r.count == targets[t], "target %zu: %zu samples", targets[t], r.count);
+        for (size_t i = 1; i < r.count; i++)
+            CHECK(r.gid[i - 1] < r.gid[i]);
+        for (size_t i = 0; i < r.count; i++)
+            CHECK(s.gid[r.index[i]] == r.gid[i]);
+        wpd_result_free(&r);
+    }
+    /* Asking for more than there is returns every point unchanged. */
+    wpd_result r;
+    CHECK(run(&s, s.n + 5, &p, &r) == 0);
+    CHECK(r.count == s.n);
+    wpd_result_free(&r);
+    scan_free(&s);
+}
+
+TEST(wpd_result_is_the_same_for_any_thread_count)
+{
+    scan s = scene(0.4, 7);
+    wpd_params p;
+    wpd_params_default(&p);
+    p.seed = 1234;
+    wpd_result a, b, c;
+    p.threads = 1;
+    CHECK(run(&s, 1500, &p, &a) == 0);
+    p.threads = 2;
+    CHECK(run(&s, 1500, &p, &b) == 0);
+    CHECK(run(&s, 1500, &p, &c) == 0);
+    CHECK(a.count == 1500 && b.count == 1500 && c.count == 1500);
+    CHECK(memcmp(a.gid, b.gid, a.count * 8) == 0);
+    CHECK(memcmp(a.xyz, b.xyz, 3 * a.count * 8) == 0);
+    CHECK(memcmp(b.xyz, c.xyz, 3 * b.count * 8) == 0);
+    wpd_result_free(&c);
+    p.seed = 99;
+    CHECK(run(&s, 1500, &p, &c) == 0);
+    CHECK(memcmp(a.gid, c.gid, a.count * 8) != 0);
+    wpd_result_free(&a);
+    wpd_result_free(&b);
+    wpd_result_free(&c);
+    scan_free(&s);
+}
+
+/* Coefficient of variation of the Voronoi areas of closed cells among k
+ * nearest neighbours, on the plane z = 0. */
+static double area_cv(const double *xyz, size_t n, double cell)
+{
+    wpd_grid g = {0};
+    wpd_error err;
+    wpd_grid_build(&g, xyz, NULL, n, cell, 1, &err);
+    double sum = 0, sum2 = 0;
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t nb[13];
+        int got = wpd_knn(&g, xyz + 3 * i, 13, (uint32_t)i, INFINITY, 0, nb, NULL);
+        double q[26];
+        for (int j = 0; j < got; j++) {
+            q[2 * j] = xyz[3 * (size_t)nb[j]] - xyz[3 * i];
+            q[2 * j + 1] = xyz[3 * (size_t)nb[j] + 1] - xyz[3 * i + 1];
+        }
+        wpd_voronoi_cell c;
+        wpd_voronoi_cell_2d(q, got, 0, &c);
+        if (!c.closed)
+            continue;
+        sum += c.area;
+        sum2 += c.area * c.area;
+        m++;
+    }
+    wpd_grid_free(&g);
+    double mean = sum / m;
+    return sqrt(sum2 / m - mean * mean) / mean;
+}
+
+TEST(wpd_smoothing_evens_out_a_jittered_plane_and_stays_on_it)
+{
+    /* A jittered grid on z = 0, Poisson-sampled, then smoothed. */
+    size_t cap = 160 * 160;
+    double *xyz = malloc(3 * cap * sizeof *xyz);
+    uint64_t *gid = malloc(cap * sizeof *gid);
+    uint64_t st = 11;
+    size_t n = 0;
+    for (int y = 0; y < 160; y++)
+        for (int x = 0; x < 160; x++) {
+            xyz[3 * n] = 0.25 * x + 0.2 * (unit(&st) - 0.5);
+            xyz[3 * n + 1] = 0.25 * y + 0.2 * (unit(&st) - 0.5);
+            xyz[3 * n + 2] = 0;
+            gid[n] = n;
+            n++;
+        }
+    double r = 1.0;
+    uint32_t *idx = malloc(n * 4);
+    wpd_error err;
+    wpd_poisson_input in = {xyz, gid, NULL, NULL, n, NULL, 0, r, 3, 2};
+    long m = wpd_poisson_pass(&in, idx, &err);
+    CHECK(m > 100);
+    double *s = malloc(3 * (size_t)m * sizeof *s);
+    for (long i = 0; i < m; i++)
+        memcpy(s + 3 * i, xyz + 3 * (size_t)idx[i], 24);
+    double before = area_cv(s, (size_t)m, 2 * r);
+    wpd_grid surface = {0};
+    CHECK(wpd_grid_build(&surface, xyz, NULL, n, 1.0, 2, &err) == 0);
+    int modes[3] = {WPD_SMOOTH_CENTROID, WPD_SMOOTH_VERTEX_MEAN, WPD_SMOOTH_COTAN};
+    double *t = malloc(3 * (size_t)m * sizeof *t);
+    for (int k = 0; k < 3; k++) {
+        memcpy(t, s, 3 * (size_t)m * sizeof *t);
+        wpd_smooth_input sm = {t, (size_t)m, NULL, NULL, 0, &surface, 0, (wpd_smooth_mode)modes[k],
+                               13, 5, r, 2};
+        wpd_smooth_stats ss;
+        CHECK(wpd_smooth(&sm, &ss, &err) == 0);
+        double after = area_cv(t, (size_t)m, 2 * r);
+        double zmax = 0;
+        for (long i = 0; i < m; i++)
+            zmax = fmax(zmax, fabs(t[3 * i + 2]));
+        CHECK_MSG(zmax < 1e-9, "mode %d: a sample left the plane by %g", modes[k], zmax);
+        /* The centroid (Lloyd) step evens cells out most, the release's vertex
+         * mean less, eq. 8 as printed not at all. */
+        if (modes[k] == WPD_SMOOTH_COTAN)
+            CHECK_MSG(fabs(after - before) < 1e-6, "eq. 8 moved points: cv %.4f -> %.4f", before, after);
+        else if (modes[k] == WPD_SMOOTH_VERTEX_MEAN)
+            CHECK_MSG(after < 0.95 * before, "vertex mean: area cv %.4f -> %.4f", before, after);
+        else
+            CHECK_MSG(after < 0.75 * before, "centroid: area cv %.4f -> %.4f", before, after);
+        wpd_drift d;
+        wpd_measure_drift(&surface, t, (size_t)m, 13, 2, &d);
+        CHECK_MSG(d.max_plane < 1e-6, "mode %d: drift off the plane %g", modes[k], d.max_plane);
+    }
+    wpd_grid_free(&surface);
+    free(t); free(s); free(idx); free(xyz); free(gid);
+}
+
+TEST(wpd_smoothing_projects_back_onto_a_curved_surface)
+{
+    /* A cylinder of radius 5 (axis y): tangent-plane moves leave it, the
+     * projection brings them back. */
+    size_t n = 0, cap = 130 * 100;
+    double *xyz = malloc(3 * cap * sizeof *xyz);
+    uint64_t *gid = malloc(cap * sizeof *gid);
+    uint64_t st = 5;
+    for (int j = 0; j < 100; j++)
+        for (int i = 0; i < 130; i++) {
+            double a = (i + 0.3 * unit(&st)) * (M_PI / 130), y = 0.2 * j + 0.05 * unit(&st);
+            xyz[3 * n] = 5 * cos(a);
+            xyz[3 * n + 1] = y;
+            xyz[3 * n + 2] = 5 * sin(a);
+            gid[n] = n;
+            n++;
+        }
+    wpd_error err;
+    uint32_t *idx = malloc(n * 4);
+    wpd_poisson_input in = {xyz, gid, NULL, NULL, n, NULL, 0, 0.8, 1, 2};
+    long m = wpd_poisson_pass(&in, idx, &err);
+    double *s = malloc(3 * (size_t)m * 8), *t = malloc(3 * (size_t)m * 8);
+    for (long i = 0; i < m; i++)
+        memcpy(s + 3 * i, xyz + 3 * (size_t)idx[i], 24);
+    wpd_grid surface = {0};
+    wpd_grid_build(&surface, xyz, NULL, n, 0.4, 2, &err);
+    double worst[2];
+    for (int proj = 0; proj < 2; proj++) {
+        memcpy(t, s, 3 * (size_t)m * 8);
+        wpd_smooth_input sm = {t, (size_t)m, NULL, NULL, 0, proj ? &surface : NULL, 0,
+                               WPD_SMOOTH_CENTROID, 13, 5, 0.8, 2};
+        wpd_smooth_stats ss;
+        CHECK(wpd_smooth(&sm, &ss, &err) == 0);
+        worst[proj] = 0;
+        for (long i = 0; i < m; i++)
+            worst[proj] = fmax(worst[proj], fabs(hypot(t[3 * i], t[3 * i + 2]) - 5));
+    }
+    /* A 13-point plane fit still sits about a sagitta (d_k^2 / 2R ~ 0.01)
+     * off the cylinder. */
+    CHECK_MSG(worst[1] < 0.04 && worst[1] < 0.2 * worst[0],
+              "off the cylinder: %.4f with projection, %.4f without", worst[1], worst[0]);
+    wpd_grid_free(&surface);
+    free(t); free(s); free(idx); free(xyz); free(gid);
+}
+
+TEST(wpd_pipeline_respects_neighbour_samples)
+{
+    scan s = scene(0.4, 8);
+    double fixed[3 * 3];
+    for (int f = 0; f < 3; f++)
+        memcpy(fixed + 3 * f, s.xyz + 3 * (size_t)(500 + 2000 * f), 24);
+    wpd_block b = {s.n, s.xyz, s.gid, fixed, 3, fixed, 3, NULL, 0};
+    wpd_params p;
+    wpd_params_default(&p);
+    p.smooth = 0;
+    wpd_result r;
+    wpd_error err;
+    CHECK(wpd_run_block(&b, 800, &p, &r, &err) == 0);
+    CHECK(r.count == 800);
+    size_t bad = 0;
+    for (size_t i = 0; i < r.count; i++)
+        for (int f = 0; f < 3; f++) {
+            const double *a = r.xyz + 3 * i, *q = fixed + 3 * f;
+            double dx = a[0] - q[0], dy = a[1] - q[1], dz = a[2] - q[2];
+            bad += dx * dx + dy * dy + dz * dz < r.radius * r.radius;
+        }
+    CHECK_MSG(bad == 0, "%zu samples within r = %g of neighbour samples", bad, r.radius);
+    wpd_result_free(&r);
+    /* With smoothing, neighbour samples take part as fixed neighbours. */
+    p.smooth = 1;
+    CHECK(wpd_run_block(&b, 800, &p, &r, &err) == 0 && r.count == 800);
+    wpd_result_free(&r);
+    scan_free(&s);
+}
+
+TEST(wpd_radius_estimates_are_sane)
+{
+    /* A flat 10 x 10 square sampled at 0.05: area 100. */
+    size_t n = 200 * 200;
+    double *xyz = malloc(3 * n * 8);
+    for (size_t i = 0; i < n; i++) {
+        xyz[3 * i] = 0.05 * (double)(i % 200) + 0.01;
+        xyz[3 * i + 1] = 0.05 * (double)(i / 200) + 0.01;
+        xyz[3 * i + 2] = 0;
+    }
+    wpd_radius_info a, b;
+    wpd_error err;
+    CHECK(wpd_radius_paper(xyz, n, 1000, 0.68, 0.05, 2, &a, &err) == 0);
+    /* voxel 0.4975: 21 x 21 voxels (alignment to 0) */
+    CHECK_MSG(fabs(a.area / 100 - 1) < 0.15, "paper area %g", a.area);
+    CHECK(fabs(a.radius - wpd_radius_paper_formula(a.voxels, a.voxel_edge, 1000, 0.68)) < 1e-12);
+    CHECK(wpd_radius_multiscale(xyz, n, 1000, 0.68, 0.05, WPD_MULTISCALE_DENSITY, 2, &b, &err) == 0);
+    CHECK_MSG(fabs(b.area / 100 - 1) < 0.25, "multiscale area %g", b.area);
+    uint64_t m[2];
+    double edges[2] = {1, 2};
+    CHECK(wpd_voxel_counts(xyz, n, edges, 2, m, 1, &err) == 0);
+    CHECK(m[0] == 100 && m[1] == 25);
+    free(xyz);
+}
+
+TEST(wpd_sharp_detector_finds_a_crease)
+{
+    /* Two half-planes meeting at a right angle along the y axis. */
+    size_t n = 0;
+    double *xyz = malloc(3 * 2 * 60 * 60 * 8);
+    uint64_t st = 2;
+    for (int j = 0; j < 60; j++)
+        for (int i = 0; i < 60; i++) {
+            double a = 0.1 * i + 0.02 * unit(&st), y = 0.1 * j;
+            xyz[3 * n] = a; xyz[3 * n + 1] = y; xyz[3 * n + 2] = 0; n++;
+            xyz[3 * n] = 0; xyz[3 * n + 1] = y + 0.05; xyz[3 * n + 2] = a + 0.05; n++;
+        }
+    wpd_grid g = {0};
+    wpd_error err;
+    CHECK(wpd_grid_build(&g, xyz, NULL, n, 0.2, 2, &err) == 0);
+    uint8_t *edge = calloc(n, 1);
+    wpd_detect_sharp(&g, n, 13, WPD_SHARP_THRESHOLD, edge, 2);
+    size_t near = 0, near_hit = 0, far_hit = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = fmin(fabs(xyz[3 * i]), fabs(xyz[3 * i + 2]));
+        double d_edge = fmax(fabs(xyz[3 * i]), fabs(xyz[3 * i + 2]));
+        int interior_y = xyz[3 * i + 1] > 0.5 && xyz[3 * i + 1] < 5.4;
+        (void)d;
+        if (d_edge < 0.06 && interior_y) {
+            near++;
+            near_hit += edge[i];
+        } else if (d_edge > 0.5 && d_edge < 5.4 && interior_y) {
+            far_hit += edge[i];
+        }
+    }
+    CHECK_MSG(near_hit > near / 2, "%zu of %zu crease points labelled", near_hit, near);
+    CHECK_MSG(far_hit == 0, "%zu flat points labelled sharp", far_hit);
+    free(edge);
+    wpd_grid_free(&g);
+    free(xyz);
+}
+
+TEST(wpd_sharp_pipeline_labels_and_counts)
+{
+    scan s = scene(0.4, 9);
+    wpd_params p;
+    wpd_params_default(&p);
+    p.sharp = 1;
+    wpd_result r;
+    CHECK(run(&s, 1000, &p, &r) == 0);
+    CHECK(r.count == 1000 && r.edge != NULL && r.sharp_points > 0);
+    size_t edges = 0;
+    for (size_t i = 0; i < r.count; i++)
+        edges += r.edge[i];
+    CHECK(edges > 0 && edges < r.count);
+    wpd_result_free(&r);
+    scan_free(&s);
+}
+
+TEST(wpd_rejects_bad_arguments)
+{
+    scan s = scene(1.0, 10);
+    wpd_params p;
+    wpd_params_default(&p);
+    wpd_block b = {s.n, s.xyz, s.gid, NULL, 0, NULL, 0, NULL, 0};
+    wpd_result r;
+    wpd_error err;
+    CHECK(wpd_run_block(&b, 0, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
+    CHECK(strstr(err.msg, "target") != NULL);
+    p.k = 2;
+    CHECK(wpd_run_block(&b, 10, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
+    wpd_params_default(&p);
+    b.nfixed = 3;
+    CHECK(wpd_run_block(&b, 10, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
+    scan_free(&s);
+}
