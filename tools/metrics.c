@@ -149,16 +149,17 @@ static double local_mean(const double *d2, int cnt)
 
 /* Buffers for one chunk of queries. */
 typedef struct chunk_buffers {
-    uint32_t *self, *idx, *idx1;
-    double *d2, *d2_1, *nn, *local, *area;
-    uint8_t *count, *count1;
+    uint32_t *self, *idx, *idx1, *idx_sp;
+    double *d2, *d2_1, *nn, *local, *area, *anchor, *d2_sp;
+    uint8_t *count, *count1, *count_sp;
 } chunk_buffers;
 
 static void chunk_free(chunk_buffers *c)
 {
-    free(c->self); free(c->idx); free(c->idx1);
+    free(c->self); free(c->idx); free(c->idx1); free(c->idx_sp);
     free(c->d2); free(c->d2_1); free(c->nn); free(c->local); free(c->area);
-    free(c->count); free(c->count1);
+    free(c->anchor); free(c->d2_sp);
+    free(c->count); free(c->count1); free(c->count_sp);
     memset(c, 0, sizeof *c);
 }
 
@@ -176,8 +177,13 @@ static int chunk_alloc(chunk_buffers *c, wpd_error *err)
     c->area = malloc(CHUNK * sizeof *c->area);
     c->count = malloc(CHUNK);
     c->count1 = malloc(CHUNK);
+    c->idx_sp = malloc(CHUNK * WPD_METRICS_K_LOCAL * sizeof *c->idx_sp);
+    c->d2_sp = malloc(CHUNK * WPD_METRICS_K_LOCAL * sizeof *c->d2_sp);
+    c->anchor = malloc(CHUNK * 3 * sizeof *c->anchor);
+    c->count_sp = malloc(CHUNK);
     if (!c->self || !c->idx || !c->idx1 || !c->d2 || !c->d2_1 || !c->nn || !c->local ||
-        !c->area || !c->count || !c->count1) {
+        !c->area || !c->count || !c->count1 || !c->idx_sp || !c->d2_sp || !c->anchor ||
+        !c->count_sp) {
         chunk_free(c);
         return wpd_fail(err, WPD_E_MEMORY, "metrics: out of memory for query buffers");
     }
@@ -185,12 +191,31 @@ static int chunk_alloc(chunk_buffers *c, wpd_error *err)
 }
 
 typedef struct resampled_accumulators {
-    accumulator to_original, local, voronoi, nn;
+    accumulator to_original, local, voronoi, nn, drift;
+    uint64_t drift_over;
 } resampled_accumulators;
 
+/* Drift of each resampled point in the chunk: d(r, O) over the local
+ * spacing of the original at r's nearest original point o (mean distance
+ * from o to its WPD_METRICS_K_LOCAL nearest original neighbours). */
+static void drift_ratios(const wpd_grid *go, const double *orig, size_t m, int threads,
+                         chunk_buffers *c, double *ratio)
+{
+    const int K = WPD_METRICS_K_LOCAL;
+    for (size_t i = 0; i < m; i++)
+        memcpy(c->anchor + 3 * i, orig + 3 * (size_t)c->idx1[i], 3 * sizeof *orig);
+    wpd_knn_many(go, c->anchor, c->idx1, m, K, INFINITY, c->idx_sp, c->d2_sp, c->count_sp,
+                 threads);
+    for (size_t i = 0; i < m; i++) {
+        double spacing = local_mean(c->d2_sp + i * (size_t)K, c->count_sp[i]);
+        double d = sqrt(c->d2_1[i]);
+        ratio[i] = d == 0 ? 0 : isnan(spacing) || spacing == 0 ? INFINITY : d / spacing;
+    }
+}
+
 /* Every measure that loops over the resampled points. */
-static void resampled_pass(const wpd_grid *go, const wpd_grid *gr, const double *res,
-                           size_t n_res, int threads, chunk_buffers *c,
+static void resampled_pass(const wpd_grid *go, const double *orig, const wpd_grid *gr,
+                           const double *res, size_t n_res, int threads, chunk_buffers *c,
                            resampled_accumulators *acc)
 {
     const int K = WPD_METRICS_K_VORONOI;
@@ -209,7 +234,10 @@ static void resampled_pass(const wpd_grid *go, const wpd_grid *gr, const double 
             c->local[i] = local_mean(d2, cnt);
             c->area[i] = voronoi_area(res, c->self[i], c->idx + i * (size_t)K, cnt);
         }
+        drift_ratios(go, orig, m, threads, c, c->anchor); /* anchor reused for ratios */
         for (size_t i = 0; i < m; i++) {
+            acc_add(&acc->drift, c->anchor[i]);
+            acc->drift_over += c->anchor[i] > 1.0;
             acc_add(&acc->to_original, sqrt(c->d2_1[i]));
             if (!isnan(c->nn[i]))
                 acc_add(&acc->nn, c->nn[i]);
@@ -280,8 +308,10 @@ int wpd_metrics_compute(const double *orig, size_t n_orig, const double *res, si
     acc_init(&acc.local);
     acc_init(&acc.voronoi);
     acc_init(&acc.nn);
+    acc_init(&acc.drift);
+    acc.drift_over = 0;
     acc_init(&to_resampled);
-    resampled_pass(&go, &gr, res, n_res, threads, &c, &acc);
+    resampled_pass(&go, orig, &gr, res, n_res, threads, &c, &acc);
     original_pass(&gr, orig, n_orig, threads, &c, &to_resampled);
     chunk_free(&c);
     wpd_grid_free(&go);
@@ -292,6 +322,8 @@ int wpd_metrics_compute(const double *orig, size_t n_orig, const double *res, si
     acc_finish(&acc.local, &m->local);
     acc_finish(&acc.voronoi, &m->voronoi);
     acc_finish(&acc.nn, &m->nn);
+    acc_finish(&acc.drift, &m->drift);
+    m->drift_over = acc.drift_over;
     derive(m);
     return 0;
 }
@@ -403,8 +435,13 @@ void wpd_metrics_write_json(FILE *f, const wpd_metrics *m)
     json_field(f, "min_spacing", m->nn.min, 0);
     json_field(f, "mean_nn_distance", m->nn.mean, 0);
     json_field(f, "surface_area", m->surface_area, 0);
-    json_field(f, "poisson_radius", m->poisson_radius, 1);
-    fputs("}\n", f);
+    json_field(f, "poisson_radius", m->poisson_radius, 0);
+    fputs("  \"drift\": {", f);
+    fputs("\"max\": ", f);
+    wpd_json_number(f, m->drift.max);
+    fputs(", \"mean\": ", f);
+    wpd_json_number(f, m->drift.mean);
+    fprintf(f, ", \"over_local_spacing\": %llu}\n}\n", (unsigned long long)m->drift_over);
 }
 
 static void text_line(FILE *f, const char *name, double v)
@@ -447,6 +484,9 @@ void wpd_metrics_write_text(FILE *f, const wpd_metrics *m)
     text_line(f, "mean nearest-neighbour distance", m->nn.mean);
     text_line(f, "surface area estimate A", m->surface_area);
     text_line(f, "normalised poisson radius rho", m->poisson_radius);
+    text_line(f, "drift / local spacing max", m->drift.max);
+    text_line(f, "drift / local spacing mean", m->drift.mean);
+    text_count(f, "points drifting beyond local spacing", m->drift_over);
 }
 
 /* ---- the subcommand ---- */

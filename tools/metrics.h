@@ -44,6 +44,12 @@
  *                  disk owns a hexagon of area 2 sqrt(3) r^2). A hexagonal
  *                  lattice of spacing s has A / n = (sqrt(3) / 2) s^2 and
  *                  d_min = s, so rho = 1; good blue-noise sets reach 0.75-0.9.
+ *   Drift (how far resampled points left the scanned surface)
+ *     drift_i    = d(r_i, O) / s(o_i), o_i the nearest original point and
+ *                  s(o_i) the mean distance from o_i to its 6 nearest
+ *                  original neighbours (the input's own local spacing);
+ *                  reported: statistics of drift_i and the number of points
+ *                  with drift_i > 1 (farther from the input than its spacing).
  *   A statistic over an empty set (e.g. local density of a 1-point cloud,
  *   rho with no closed cell) is NaN: text "n/a", JSON null.
  *
@@ -62,6 +68,7 @@
  *   mean_nn_distance                       mean_nn
  *   surface_area                           A
  *   poisson_radius                         rho
+ *   drift: {max, mean, over_local_spacing} drift_i statistics, count > 1
  *
  * Coordinates: the computation only ever uses differences of nearby points
  * (kNN, PCA relative to the query point, projections relative to r_i), so
@@ -101,6 +108,8 @@ typedef struct wpd_metrics {
     wpd_metrics_stats nn;            /* |NN_1(r_i) - r_i|; min = d_min */
     double surface_area;             /* A */
     double poisson_radius;           /* rho */
+    wpd_metrics_stats drift;         /* d(r, O) / local spacing of O near r */
+    uint64_t drift_over;             /* resampled points with drift > 1 */
 } wpd_metrics;
 
 /* Computes every measure above for the original orig[3*i..3*i+2], i < n_orig,
