@@ -52,6 +52,54 @@ void wpd_sym3_eigen(const double a[6], double evals[3], double evecs[3][3])
     }
 }
 
+/* Smallest eigenpair of a symmetric 3x3 matrix in closed form (eigenvalues
+ * by the trigonometric formula, the eigenvector as the longest cross product
+ * of two rows of A - lambda I). Returns 0 when that is ill-conditioned (two
+ * smallest eigenvalues nearly equal), so the caller falls back to Jacobi. */
+static int smallest_eigen_fast(const double a[6], double ev[3], double vec[3])
+{
+    double m = (a[0] + a[3] + a[5]) / 3;
+    double b0 = a[0] - m, b3 = a[3] - m, b5 = a[5] - m;
+    double off = a[1] * a[1] + a[2] * a[2] + a[4] * a[4];
+    double p = (b0 * b0 + b3 * b3 + b5 * b5 + 2 * off) / 6;
+    if (!(p > 0))
+        return 0;
+    double det = b0 * (b3 * b5 - a[4] * a[4]) - a[1] * (a[1] * b5 - a[4] * a[2]) +
+                 a[2] * (a[1] * a[4] - b3 * a[2]);
+    double sp = sqrt(p);
+    double c = det / (2 * p * sp);
+    c = c < -1 ? -1 : c > 1 ? 1 : c;
+    double phi = acos(c) / 3;
+    double hi = m + 2 * sp * cos(phi);
+    double lo = m + 2 * sp * cos(phi + 2 * M_PI / 3);
+    double mid = 3 * m - hi - lo;
+    if (mid - lo < 1e-6 * (hi - lo))
+        return 0;
+    double r0[3] = {a[0] - lo, a[1], a[2]}, r1[3] = {a[1], a[3] - lo, a[4]},
+           r2[3] = {a[2], a[4], a[5] - lo};
+    double c01[3] = {r0[1] * r1[2] - r0[2] * r1[1], r0[2] * r1[0] - r0[0] * r1[2],
+                     r0[0] * r1[1] - r0[1] * r1[0]};
+    double c02[3] = {r0[1] * r2[2] - r0[2] * r2[1], r0[2] * r2[0] - r0[0] * r2[2],
+                     r0[0] * r2[1] - r0[1] * r2[0]};
+    double c12[3] = {r1[1] * r2[2] - r1[2] * r2[1], r1[2] * r2[0] - r1[0] * r2[2],
+                     r1[0] * r2[1] - r1[1] * r2[0]};
+    double n01 = c01[0] * c01[0] + c01[1] * c01[1] + c01[2] * c01[2];
+    double n02 = c02[0] * c02[0] + c02[1] * c02[1] + c02[2] * c02[2];
+    double n12 = c12[0] * c12[0] + c12[1] * c12[1] + c12[2] * c12[2];
+    const double *best = n01 >= n02 && n01 >= n12 ? c01 : n02 >= n12 ? c02 : c12;
+    double nb = fmax(n01, fmax(n02, n12));
+    double scale = hi - lo;
+    if (!(nb > 1e-18 * scale * scale * scale * scale))
+        return 0;
+    double inv = 1 / sqrt(nb);
+    for (int k = 0; k < 3; k++)
+        vec[k] = best[k] * inv;
+    ev[0] = lo;
+    ev[1] = mid;
+    ev[2] = hi;
+    return 1;
+}
+
 void wpd_plane_fit(const double *xyz, const uint32_t *idx, int m, wpd_plane *pl)
 {
     memset(pl, 0, sizeof *pl);
@@ -83,7 +131,8 @@ void wpd_plane_fit(const double *xyz, const uint32_t *idx, int m, wpd_plane *pl)
         c[3] += d1 * d1; c[4] += d1 * d2; c[5] += d2 * d2;
     }
     double ev[3], vec[3][3];
-    wpd_sym3_eigen(c, ev, vec);
+    if (!smallest_eigen_fast(c, ev, vec[0]))
+        wpd_sym3_eigen(c, ev, vec);
     double sum = ev[0] + ev[1] + ev[2];
     if (!(sum > 0))
         return;

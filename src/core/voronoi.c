@@ -54,12 +54,21 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
     polygon poly = {4, {-frame, frame, frame, -frame}, {-frame, -frame, frame, frame},
                     {FRAME_EDGE, FRAME_EDGE, FRAME_EDGE, FRAME_EDGE}};
     double tiny = 1e-24 * frame * frame;
+    double reach2 = 2 * frame * frame; /* squared distance of the farthest vertex */
     for (int j = 0; j < m && poly.n > 0; j++) {
         double qx = q[2 * j], qy = q[2 * j + 1];
         double q2 = qx * qx + qy * qy;
         if (q2 <= tiny)
             continue;
+        /* The bisector of q lies |q| / 2 from the origin: it cannot cut a
+         * polygon whose vertices are all nearer (usual after the nearest
+         * neighbours, which come first in kNN order). */
+        if (0.25 * q2 >= reach2)
+            continue;
         clip(&poly, qx, qy, 0.5 * q2, j);
+        reach2 = 0;
+        for (int i = 0; i < poly.n; i++)
+            reach2 = fmax(reach2, poly.x[i] * poly.x[i] + poly.y[i] * poly.y[i]);
     }
     if (poly.n < 3)
         return;

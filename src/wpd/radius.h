@@ -30,7 +30,7 @@
 
 #include "common/error.h"
 
-#define WPD_MULTISCALE_DENSITY 0.44
+#define WPD_MULTISCALE_DENSITY 0.47
 #define WPD_MAX_SCALES 16
 
 typedef struct wpd_radius_info {

@@ -20,6 +20,9 @@ typedef struct frames {
     uint32_t *order; /* [n] samples in grid cell order: neighbouring samples are
                         processed together, which keeps the grids in cache */
     float *rho;      /* [n] last k-th distance to the input: next search radius */
+    double *plane;   /* [9n] input plane last fitted for each sample: the point it
+                        was fitted at, its centroid, its normal */
+    uint8_t *fitted; /* [n] plane[] is valid */
 } frames;
 
 static void free_frames(frames *f)
@@ -30,6 +33,8 @@ static void free_frames(frames *f)
     free(f->fixed);
     free(f->order);
     free(f->rho);
+    free(f->plane);
+    free(f->fitted);
 }
 
 static int build_frames(const wpd_smooth_input *in, const double *all, frames *f,
@@ -44,7 +49,10 @@ static int build_frames(const wpd_smooth_input *in, const double *all, frames *f
     f->fixed = calloc(n ? n : 1, 1);
     f->order = malloc((n ? n : 1) * sizeof *f->order);
     f->rho = malloc((n ? n : 1) * sizeof *f->rho);
-    if (!f->nb || !f->cnt || !f->uvn || !f->fixed || !f->order || !f->rho)
+    f->plane = malloc(9 * (n ? n : 1) * sizeof *f->plane);
+    f->fitted = calloc(n ? n : 1, 1);
+    if (!f->nb || !f->cnt || !f->uvn || !f->fixed || !f->order || !f->rho || !f->plane ||
+        !f->fitted)
         return wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
     wpd_grid g = {0};
     double cell = in->spacing > 0 ? 2 * in->spacing : 1;
@@ -87,7 +95,8 @@ static int build_frames(const wpd_smooth_input *in, const double *all, frames *f
     return 0;
 }
 
-static void project_on_surface(const wpd_grid *surface, int k, double p[3], float *rho);
+static void project_on_surface(const wpd_grid *surface, int k, double p[3], const frames *f,
+                               size_t i);
 
 /* New position of sample i from the previous positions; returns 1 if it
  * moved, 0 if it stays (open cell). */
@@ -121,25 +130,48 @@ static int smooth_one(const wpd_smooth_input *in, const frames *f, const double 
     for (int a = 0; a < 3; a++)
         out[a] = p[a] + c[0] * u[a] + c[1] * v[a];
     if (in->surface)
-        project_on_surface(in->surface, f->k, out, &f->rho[i]);
+        project_on_surface(in->surface, f->k, out, f, i);
     return 1;
 }
 
-/* Moves p onto the PCA plane of the k input points nearest to it. *rho is
- * the search radius to try first; it is updated to the k-th distance. */
-static void project_on_surface(const wpd_grid *surface, int k, double p[3], float *rho)
+/* Moves p onto the PCA plane of the k input points nearest to it. The
+ * plane is fitted anew only when p is more than an eighth of the k-th
+ * neighbour distance away from where sample i's plane was last fitted:
+ * after the first iteration most samples move less than that, and such a
+ * move changes few of the k neighbours. On the NC Raleigh scan (100 K
+ * samples) this halves the projection time; the mean distance to the
+ * local input plane goes from 0.055 to 0.067 input spacings (0.135 when
+ * projecting only after the last iteration, 0.36-0.48 never). */
+static void project_on_surface(const wpd_grid *surface, int k, double p[3], const frames *f,
+                               size_t i)
 {
+    double *cache = f->plane + 9 * i; /* fitted at, centroid, normal */
+    double reuse = 0.125 * f->rho[i];
+    if (f->fitted[i]) {
+        double dx = p[0] - cache[0], dy = p[1] - cache[1], dz = p[2] - cache[2];
+        if (dx * dx + dy * dy + dz * dz < reuse * reuse) {
+            wpd_plane pl;
+            memcpy(pl.centroid, cache + 3, sizeof pl.centroid);
+            memcpy(pl.normal, cache + 6, sizeof pl.normal);
+            wpd_plane_project(&pl, p, p);
+            return;
+        }
+    }
     uint32_t near[WPD_KNN_MAX];
     double d2[WPD_KNN_MAX];
-    int got = wpd_knn_slots(surface, p, k, WPD_NO_SELF, INFINITY, 1.05 * *rho, near, d2);
+    int got = wpd_knn_slots(surface, p, k, WPD_NO_SELF, INFINITY, 1.05 * f->rho[i], near, d2);
     if (got < 3)
         return;
-    *rho = (float)sqrt(d2[got - 1]);
+    f->rho[i] = (float)sqrt(d2[got - 1]);
     double pts[3 * WPD_KNN_MAX];
     for (int j = 0; j < got; j++)
         memcpy(pts + 3 * j, surface->xyz + 3 * (size_t)near[j], 3 * sizeof(double));
     wpd_plane pl;
     wpd_plane_fit(pts, NULL, got, &pl);
+    memcpy(cache, p, 3 * sizeof *cache);
+    memcpy(cache + 3, pl.centroid, sizeof pl.centroid);
+    memcpy(cache + 6, pl.normal, sizeof pl.normal);
+    f->fitted[i] = 1;
     wpd_plane_project(&pl, p, p);
 }
 

@@ -104,7 +104,7 @@ static int build_surface(const wpd_block *b, double cell, int threads, wpd_grid 
 
 /* Poisson passes until the count is in [target, 1.05 target] (or the pass
  * budget runs out); the kept samples end in *out / *count, and the grid the
- * passes used (over all block points) in *input_grid.
+ * passes used (over all block points, cell ~ r) in *input_grid.
  *
  * Passes over the full input share one prepared context, so a pass costs
  * only the greedy pruning. With p->prune_previous, a pass at a larger
@@ -264,18 +264,18 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
     res->radius_estimate = ri.radius;
     res->time.radius = omp_get_wtime() - t;
 
-    /* 2. sharp features need a fine grid over the input (and the halo) first */
-    /* A guess of the distance from a point to its k-th nearest input point:
-     * the input spacing is about r sqrt(target / n) x 1.5. */
+    /* 2. A grid over the input points (and the halo) at about their k-th
+     * neighbour distance, for sharp-feature detection and for keeping
+     * smoothed samples on the surface. The input spacing is about
+     * 1.5 r sqrt(target / n); 13 neighbours lie within ~1.7 spacings. */
     double input_dk = 2.5 * ri.radius * sqrt((double)target / (double)n);
-    int own_surface = p->sharp || b->nhalo > 0;
-    if (own_surface) {
+    int want_surface = p->sharp || (p->smooth && p->keep_on_surface && p->iterations > 0);
+    int surface_later = 0;
+    if (p->sharp) {
         t = omp_get_wtime();
         if (build_surface(b, input_dk, threads, &surface, err) < 0)
             goto done;
         res->time.surface = omp_get_wtime() - t;
-    }
-    if (p->sharp) {
         t = omp_get_wtime();
         edge = malloc(n);
         if (!edge) {
@@ -286,15 +286,46 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
         for (size_t i = 0; i < n; i++)
             res->sharp_points += edge[i];
         res->time.sharp = omp_get_wtime() - t;
+    } else if (want_surface) {
+        surface_later = 1;
     }
 
-    /* 3. Poisson-disk passes with refinement; without a halo, their grid
-     * over the block points serves as the surface for smoothing. */
+    /* 3. Poisson-disk passes with refinement. The greedy pass is sequential,
+     * so with two or more threads the surface grid is built alongside it on
+     * another thread (both results are independent of the threads). */
     t = omp_get_wtime();
-    if (poisson_refined(b, edge, target, p, threads, ri.radius, res, &idx, &count,
-                        own_surface ? &pass_grid : &surface, err) < 0)
-        goto done;
+    int poisson_rc = 0, surface_rc = 0;
+    wpd_error surface_err;
+    wpd_error_clear(&surface_err);
+    if (surface_later && threads >= 2) {
+#pragma omp parallel sections num_threads(2)
+        {
+#pragma omp section
+            poisson_rc = poisson_refined(b, edge, target, p, threads, ri.radius, res, &idx, &count,
+                                         &pass_grid, err);
+#pragma omp section
+            {
+                double ts = omp_get_wtime();
+                surface_rc = build_surface(b, input_dk, 1, &surface, &surface_err);
+                res->time.surface = omp_get_wtime() - ts;
+            }
+        }
+    } else {
+        poisson_rc = poisson_refined(b, edge, target, p, threads, ri.radius, res, &idx, &count,
+                                     &pass_grid, err);
+        if (poisson_rc == 0 && surface_later) {
+            double ts = omp_get_wtime();
+            surface_rc = build_surface(b, input_dk, threads, &surface, &surface_err);
+            res->time.surface = omp_get_wtime() - ts;
+        }
+    }
     wpd_grid_free(&pass_grid);
+    if (poisson_rc < 0)
+        goto done;
+    if (surface_rc < 0) {
+        *err = surface_err;
+        goto done;
+    }
     res->poisson_count = count;
     res->time.poisson = omp_get_wtime() - t;
 
