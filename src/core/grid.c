@@ -91,13 +91,31 @@ static void free_columns(wpd_grid *g)
     g->tab_run = g->tab_end = NULL;
 }
 
+/* Largest number of columns indexed by a dense array (4 bytes each, so at
+ * most about as much memory as the points' own slots). */
+static double dense_limit(size_t n)
+{
+    return 6.0 * (double)n + 4096;
+}
+
+/* The axis along which the points' box is thinnest (runs inside columns). */
+static int thinnest_axis(const double lo[3], const double hi[3])
+{
+    int c = 2;
+    if (hi[1] - lo[1] < hi[c] - lo[c])
+        c = 1;
+    if (hi[0] - lo[0] < hi[c] - lo[c])
+        c = 0;
+    return c;
+}
+
 /* Column index: a dense array when it costs no more memory than the slots,
  * else an open-addressing table. */
 static int build_columns(wpd_grid *g, const uint64_t *sorted_key)
 {
     uint64_t cols = (uint64_t)g->dim[g->axis[0]] * (uint64_t)g->dim[g->axis[1]];
     free_columns(g);
-    if (cols <= 4 * (uint64_t)g->n + 4096) {
+    if ((double)cols <= dense_limit(g->n)) {
         g->col_run = calloc(cols + 1, sizeof *g->col_run);
         if (!g->col_run)
             return -1;
@@ -113,9 +131,13 @@ static int build_columns(wpd_grid *g, const uint64_t *sorted_key)
                           column_of(g, sorted_key[g->run_start[r - 1]]))
             ncols++;
     size_t cap = 16;
-    while (cap < 2 * ncols)
+    int bits = 4;
+    while (cap < 2 * ncols) {
         cap <<= 1;
+        bits++;
+    }
     g->tab_mask = cap - 1;
+    g->tab_shift = 64 - bits;
     g->tab_key = malloc(cap * sizeof *g->tab_key);
     g->tab_run = malloc(cap * sizeof *g->tab_run);
     g->tab_end = malloc(cap * sizeof *g->tab_end);
@@ -127,7 +149,7 @@ static int build_columns(wpd_grid *g, const uint64_t *sorted_key)
         size_t end = r + 1;
         while (end < g->nruns && column_of(g, sorted_key[g->run_start[end]]) == col)
             end++;
-        uint64_t h = (col * 0x9e3779b97f4a7c15ULL) >> 20;
+        uint64_t h = (col * 0x9e3779b97f4a7c15ULL) >> g->tab_shift;
         for (;; h++) {
             h &= g->tab_mask;
             if (g->tab_key[h] == WPD_GRID_EMPTY)
@@ -173,6 +195,19 @@ int wpd_grid_build(wpd_grid *g, const double *xyz, const uint32_t *subset,
     g->n = n;
     double hi[3];
     wpd_point_bounds(xyz, subset, n, g->origin, hi, threads);
+    /* A dense column index is much faster than a hashed one (neighbouring
+     * columns share cache lines): enlarge the cell up to twice for one. */
+    for (int step = 0; step < 4; step++) {
+        double c = cell * (step == 0 ? 1 : step == 1 ? 1.26 : step == 2 ? 1.59 : 2.0);
+        double cols = 1;
+        for (int a = 0; a < 3; a++)
+            if (a != thinnest_axis(g->origin, hi))
+                cols *= floor((hi[a] - g->origin[a]) / c) + 1;
+        if (cols <= dense_limit(n)) {
+            cell = c;
+            break;
+        }
+    }
     int bits = plan_layout(g, hi, cell);
 
     key = malloc((n ? n : 1) * sizeof *key);

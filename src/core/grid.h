@@ -38,6 +38,7 @@ typedef struct wpd_grid {
     uint32_t *tab_run;    /* first run of that column */
     uint32_t *tab_end;    /* end of its runs */
     uint64_t tab_mask;
+    int tab_shift;        /* 64 - log2(table size): hash = top bits of col * golden */
     size_t cap;           /* points the slot arrays can hold (reuse) */
 } wpd_grid;
 
@@ -87,7 +88,7 @@ static inline void wpd_grid_column(const wpd_grid *g, int64_t ia, int64_t ib,
         *re = g->col_run[col + 1];
         return;
     }
-    uint64_t h = (col * 0x9e3779b97f4a7c15ULL) >> 20;
+    uint64_t h = (col * 0x9e3779b97f4a7c15ULL) >> g->tab_shift;
     for (;;) {
         h &= g->tab_mask;
         uint64_t k = g->tab_key[h];

@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdlib.h>
 
 /* The best candidates so far, sorted by (d2, id). */
 typedef struct knn_heap {
@@ -143,4 +144,36 @@ void wpd_knn_many(const wpd_grid *g, const double *qxyz, const uint32_t *self,
                           idx + i * (size_t)k, d2 ? d2 + i * (size_t)k : NULL);
         count[i] = (uint8_t)got;
     }
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+int wpd_grid_build_knn(wpd_grid *g, const double *xyz, const uint32_t *subset, size_t n,
+                       int k, double cell_guess, int threads, wpd_error *err)
+{
+    if (wpd_grid_build(g, xyz, subset, n, cell_guess, threads, err) < 0)
+        return -1;
+    if (n < 256)
+        return 0;
+    enum { PROBES = 64 };
+    double dk[PROBES];
+    int m = 0;
+    for (int i = 0; i < PROBES; i++) {
+        size_t s = (size_t)((2 * i + 1) * (double)n / (2 * PROBES));
+        knn_heap h;
+        int got = knn_search(g, g->xyz + 3 * s, k, g->id[s], INFINITY, 0, &h);
+        if (got == h.k)
+            dk[m++] = sqrt(h.d2[got - 1]);
+    }
+    if (m < PROBES / 2)
+        return 0;
+    qsort(dk, (size_t)m, sizeof *dk, cmp_double);
+    double median = dk[m / 2];
+    if (median > 0 && (median > 1.6 * g->cell || median < 0.4 * g->cell))
+        return wpd_grid_build(g, xyz, subset, n, median, threads, err);
+    return 0;
 }

@@ -27,6 +27,14 @@
 int wpd_knn(const wpd_grid *g, const double q[3], int k, uint32_t self,
             double max_dist, double hint, uint32_t *idx, double *d2);
 
+/* Builds a grid (as wpd_grid_build) for k-nearest-neighbour queries among
+ * its own points: starting from cell_guess, it measures the k-th neighbour
+ * distance of 64 points spread over the grid and, when the median is far
+ * from the cell (a box of half-width d_k should span 2-3 cells), rebuilds
+ * once with a cell of that median. The result depends only on the points. */
+int wpd_grid_build_knn(wpd_grid *g, const double *xyz, const uint32_t *subset, size_t n,
+                       int k, double cell_guess, int threads, wpd_error *err);
+
 /* wpd_knn returning grid slots instead of source indices: the neighbours'
  * coordinates are then g->xyz[3*slot ..], whatever array the grid was
  * built from. */

@@ -46,9 +46,14 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
     if (m > WPD_VORONOI_MAX_NB)
         m = WPD_VORONOI_MAX_NB;
     memset(cell, 0, sizeof *cell);
-    if (frame <= 0)
-        for (int j = 0; j < m; j++)
-            frame = fmax(frame, sqrt(q[2 * j] * q[2 * j] + q[2 * j + 1] * q[2 * j + 1]));
+    if (frame <= 0) { /* the largest |q_j| */
+        double f2 = 0;
+        for (int j = 0; j < m; j++) {
+            double d2 = q[2 * j] * q[2 * j] + q[2 * j + 1] * q[2 * j + 1];
+            f2 = d2 > f2 ? d2 : f2;
+        }
+        frame = sqrt(f2);
+    }
     if (!(frame > 0))
         return;
     polygon poly = {4, {-frame, frame, frame, -frame}, {-frame, -frame, frame, frame},
@@ -67,8 +72,10 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
             continue;
         clip(&poly, qx, qy, 0.5 * q2, j);
         reach2 = 0;
-        for (int i = 0; i < poly.n; i++)
-            reach2 = fmax(reach2, poly.x[i] * poly.x[i] + poly.y[i] * poly.y[i]);
+        for (int i = 0; i < poly.n; i++) {
+            double v2 = poly.x[i] * poly.x[i] + poly.y[i] * poly.y[i];
+            reach2 = v2 > reach2 ? v2 : reach2;
+        }
     }
     if (poly.n < 3)
         return;

@@ -14,41 +14,47 @@ int wpd_nearest_distances(const wpd_exact_input *in, const uint32_t *idx, size_t
 {
     int threads = in->threads > 0 ? in->threads : omp_get_max_threads();
     wpd_grid g = {0}, gf = {0};
-    /* Cells of about twice the spacing hold a few samples each. */
-    double cell = in->spacing > 0 ? 2 * in->spacing : 1;
-    if (wpd_grid_build(&g, in->xyz, idx, count, cell, threads, err) < 0)
+    /* Cells of about the nearest-neighbour distance. */
+    double cell = in->spacing > 0 ? 1.5 * in->spacing : 1;
+    if (wpd_grid_build_knn(&g, in->xyz, idx, count, 1, cell, threads, err) < 0)
         return -1;
+    cell = g.cell;
     if (in->nfixed && wpd_grid_build(&gf, in->fixed_xyz, NULL, in->nfixed, cell, threads, err) < 0) {
         wpd_grid_free(&g);
         return -1;
     }
-    /* Position in idx of each slot: idx is ascending, so a binary search. */
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 512)
-    for (size_t i = 0; i < count; i++) {
-        const double *p = in->xyz + 3 * (size_t)idx[i];
-        uint32_t who;
-        double d2 = INFINITY, f2 = INFINITY;
-        uint32_t fwho;
-        /* Poisson samples are about `spacing` apart. */
-        if (wpd_knn(&g, p, 1, idx[i], INFINITY, 1.5 * in->spacing, &who, &d2) < 1)
-            d2 = INFINITY;
-        if (in->nfixed && wpd_knn(&gf, p, 1, WPD_NO_SELF, INFINITY, 1.5 * in->spacing, &fwho, &f2) < 1)
-            f2 = INFINITY;
-        uint32_t pos = UINT32_MAX;
-        if (d2 <= f2 && isfinite(d2)) {
-            size_t lo = 0, hi = count;
-            while (lo < hi) {
-                size_t mid = (lo + hi) / 2;
-                if (idx[mid] < who)
-                    lo = mid + 1;
-                else
-                    hi = mid;
+#pragma omp parallel num_threads(threads)
+    {
+        /* Poisson samples are about `spacing` apart; then the distance of
+         * the previous query (speed only, never the answer). */
+        double hint = 1.5 * in->spacing;
+#pragma omp for schedule(dynamic, 512)
+        for (size_t i = 0; i < count; i++) {
+            const double *p = in->xyz + 3 * (size_t)idx[i];
+            uint32_t who, fwho;
+            double d2 = INFINITY, f2 = INFINITY;
+            if (wpd_knn(&g, p, 1, idx[i], INFINITY, hint, &who, &d2) < 1)
+                d2 = INFINITY;
+            if (in->nfixed && wpd_knn(&gf, p, 1, WPD_NO_SELF, INFINITY, hint, &fwho, &f2) < 1)
+                f2 = INFINITY;
+            if (isfinite(d2))
+                hint = 1.5 * sqrt(d2);
+            uint32_t pos = UINT32_MAX;
+            if (d2 <= f2 && isfinite(d2)) { /* idx is ascending: binary search */
+                size_t lo = 0, hi = count;
+                while (lo < hi) {
+                    size_t mid = (lo + hi) / 2;
+                    if (idx[mid] < who)
+                        lo = mid + 1;
+                    else
+                        hi = mid;
+                }
+                pos = (uint32_t)lo;
             }
-            pos = (uint32_t)lo;
+            nn[i] = sqrt(d2 <= f2 ? d2 : f2);
+            if (partner)
+                partner[i] = pos;
         }
-        nn[i] = sqrt(d2 <= f2 ? d2 : f2);
-        if (partner)
-            partner[i] = pos;
     }
     wpd_grid_free(&g);
     wpd_grid_free(&gf);

@@ -47,6 +47,8 @@ typedef struct pass_state {
     double r;
     uint32_t *stack;
     size_t stack_cap;
+    uint32_t *hits;       /* slots collected by try_accept */
+    size_t hit_cap;
 } pass_state;
 
 /* Conflict threshold (squared) between a point of radius rp and slot s. */
@@ -81,31 +83,51 @@ static void remove_around(const pass_state *ps, const double p[3], double rp)
         }
 }
 
-/* An undecided slot of smaller priority in conflict with slot t, or
- * UINT32_MAX if there is none. */
-static uint32_t find_blocker(const pass_state *ps, uint32_t t, double rt)
+/* Tries to accept slot t: one scan of its neighbourhood collects the
+ * undecided slots in conflict with it; if one of them has a smaller
+ * priority (it can only be in t's band), that one must be decided first and
+ * is returned, nothing changes. Otherwise t is accepted, the collected
+ * slots are removed, and UINT32_MAX is returned. Returns UINT32_MAX - 1 if
+ * the collection buffer cannot grow. */
+static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
 {
     const wpd_grid *g = ps->g;
     const double *p = g->xyz + 3 * (size_t)t;
-    int64_t lo[3], hi[3];
-    if (!wpd_grid_box(g, p, 0.5 * (rt + ps->r), lo, hi))
-        return UINT32_MAX;
     uint64_t pt = ps->prio[t];
     uint8_t waiting = ps->state[t]; /* undecided, same band */
-    for (int64_t b = lo[1]; b <= hi[1]; b++)
-        for (int64_t a = lo[0]; a <= hi[0]; a++) {
-            uint32_t sb, se;
-            wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
-            for (uint32_t s = sb; s < se; s++)
-                if (ps->state[s] == waiting && ps->prio[s] < pt &&
-                    dist2(g->xyz + 3 * (size_t)s, p) < conflict2(ps, rt, s))
-                    return s;
-        }
+    size_t found = 0;
+    int64_t lo[3], hi[3];
+    if (wpd_grid_box(g, p, 0.5 * (rt + ps->r), lo, hi))
+        for (int64_t b = lo[1]; b <= hi[1]; b++)
+            for (int64_t a = lo[0]; a <= hi[0]; a++) {
+                uint32_t sb, se;
+                wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
+                for (uint32_t s = sb; s < se; s++) {
+                    uint8_t st = ps->state[s];
+                    if ((st & STATUS_MASK) != UNDECIDED || s == t ||
+                        dist2(g->xyz + 3 * (size_t)s, p) >= conflict2(ps, rt, s))
+                        continue;
+                    if (st == waiting && ps->prio[s] < pt)
+                        return s;
+                    if (found == ps->hit_cap) {
+                        size_t cap = 2 * ps->hit_cap;
+                        uint32_t *grown = realloc(ps->hits, cap * sizeof *grown);
+                        if (!grown)
+                            return UINT32_MAX - 1;
+                        ps->hits = grown;
+                        ps->hit_cap = cap;
+                    }
+                    ps->hits[found++] = s;
+                }
+            }
+    ps->state[t] |= ACCEPTED;
+    for (size_t i = 0; i < found; i++)
+        ps->state[ps->hits[i]] |= REMOVED;
     return UINT32_MAX;
 }
 
-/* Decides slot s and whatever it depends on. Returns 0, or -1 if the stack
- * cannot grow. */
+/* Decides slot s and whatever it depends on. Returns 0, or -1 if out of
+ * memory. */
 static int resolve(pass_state *ps, uint32_t s)
 {
     size_t top = 0;
@@ -117,22 +139,22 @@ static int resolve(pass_state *ps, uint32_t s)
             continue;
         }
         double rt = ps->half && ps->half[t] ? 0.5 * ps->r : ps->r;
-        uint32_t blocker = find_blocker(ps, t, rt);
-        if (blocker != UINT32_MAX) {
-            if (top == ps->stack_cap) {
-                size_t cap = 2 * ps->stack_cap;
-                uint32_t *grown = realloc(ps->stack, cap * sizeof *grown);
-                if (!grown)
-                    return -1;
-                ps->stack = grown;
-                ps->stack_cap = cap;
-            }
-            ps->stack[top++] = blocker;
+        uint32_t blocker = try_accept(ps, t, rt);
+        if (blocker == UINT32_MAX) {
+            top--;
             continue;
         }
-        ps->state[t] |= ACCEPTED;
-        remove_around(ps, ps->g->xyz + 3 * (size_t)t, rt);
-        top--;
+        if (blocker == UINT32_MAX - 1)
+            return -1;
+        if (top == ps->stack_cap) {
+            size_t cap = 2 * ps->stack_cap;
+            uint32_t *grown = realloc(ps->stack, cap * sizeof *grown);
+            if (!grown)
+                return -1;
+            ps->stack = grown;
+            ps->stack_cap = cap;
+        }
+        ps->stack[top++] = blocker;
     }
     return 0;
 }
@@ -154,6 +176,8 @@ struct wpd_poisson {
     uint8_t *state;        /* [n] per slot, per pass */
     uint32_t *stack;
     size_t stack_cap;
+    uint32_t *hits;
+    size_t hit_cap;
 };
 
 /* Builds the grid for cell size r and everything that depends on slots. */
@@ -211,7 +235,10 @@ wpd_poisson *wpd_poisson_prepare(const wpd_poisson_input *in, wpd_error *err)
     ps->state = malloc(m);
     ps->stack_cap = 1024;
     ps->stack = malloc(ps->stack_cap * sizeof *ps->stack);
-    if (!ps->prio || !ps->band || (in->edge && !ps->half) || !ps->order || !ps->state || !ps->stack)
+    ps->hit_cap = 1024;
+    ps->hits = malloc(ps->hit_cap * sizeof *ps->hits);
+    if (!ps->prio || !ps->band || (in->edge && !ps->half) || !ps->order || !ps->state ||
+        !ps->stack || !ps->hits)
         goto oom;
     if (prepare_slots(ps, in->r, err) < 0) {
         wpd_poisson_release(ps);
@@ -235,6 +262,7 @@ void wpd_poisson_release(wpd_poisson *ps)
     free(ps->order);
     free(ps->state);
     free(ps->stack);
+    free(ps->hits);
     free(ps);
 }
 
@@ -264,7 +292,8 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
         if (prepare_slots(ps, r, err) < 0)
             return -1;
     PROF_T(0);
-    pass_state st = {&ps->g, ps->half, ps->prio, ps->state, r, ps->stack, ps->stack_cap};
+    pass_state st = {&ps->g, ps->half, ps->prio, ps->state, r, ps->stack, ps->stack_cap,
+                     ps->hits, ps->hit_cap};
     memcpy(ps->state, ps->band, n);
     for (size_t f = 0; f < ps->in.nfixed; f++)
         remove_around(&st, ps->in.fixed_xyz + 3 * f, r);
@@ -274,8 +303,10 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
             failed = resolve(&st, ps->order[i]) < 0;
     ps->stack = st.stack;
     ps->stack_cap = st.stack_cap;
+    ps->hits = st.hits;
+    ps->hit_cap = st.hit_cap;
     if (failed)
-        return wpd_fail(err, WPD_E_MEMORY, "poisson: out of memory for the conflict stack");
+        return wpd_fail(err, WPD_E_MEMORY, "poisson: out of memory for the conflict lists");
     PROF_T(1);
     size_t kept = 0;
     for (size_t s = 0; s < n; s++)

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core/grid.h"
+#include "core/knn.h"
 #include "core/sort.h"
 #include "wpd/exact.h"
 #include "wpd/poisson.h"
@@ -87,17 +88,18 @@ static int take_all(const wpd_block *b, wpd_result *res, wpd_error *err)
 }
 
 /* Grid over the block points followed by the halo points. */
-static int build_surface(const wpd_block *b, double cell, int threads, wpd_grid *g, wpd_error *err)
+static int build_surface(const wpd_block *b, double cell, int k, int threads, wpd_grid *g,
+                         wpd_error *err)
 {
     if (b->nhalo == 0)
-        return wpd_grid_build(g, b->xyz, NULL, b->n, cell, threads, err);
+        return wpd_grid_build_knn(g, b->xyz, NULL, b->n, k, cell, threads, err);
     size_t total = b->n + b->nhalo;
     double *all = malloc(3 * total * sizeof *all);
     if (!all)
         return wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory for %zu surface points", total);
     memcpy(all, b->xyz, 3 * b->n * sizeof *all);
     memcpy(all + 3 * b->n, b->halo_xyz, 3 * b->nhalo * sizeof *all);
-    int rc = wpd_grid_build(g, all, NULL, total, cell, threads, err);
+    int rc = wpd_grid_build_knn(g, all, NULL, total, k, cell, threads, err);
     free(all);
     return rc;
 }
@@ -273,7 +275,7 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
     int surface_later = 0;
     if (p->sharp) {
         t = omp_get_wtime();
-        if (build_surface(b, input_dk, threads, &surface, err) < 0)
+        if (build_surface(b, input_dk, p->k, threads, &surface, err) < 0)
             goto done;
         res->time.surface = omp_get_wtime() - t;
         t = omp_get_wtime();
@@ -306,7 +308,7 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
 #pragma omp section
             {
                 double ts = omp_get_wtime();
-                surface_rc = build_surface(b, input_dk, 1, &surface, &surface_err);
+                surface_rc = build_surface(b, input_dk, p->k, 1, &surface, &surface_err);
                 res->time.surface = omp_get_wtime() - ts;
             }
         }
@@ -315,7 +317,7 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
                                      &pass_grid, err);
         if (poisson_rc == 0 && surface_later) {
             double ts = omp_get_wtime();
-            surface_rc = build_surface(b, input_dk, threads, &surface, &surface_err);
+            surface_rc = build_surface(b, input_dk, p->k, threads, &surface, &surface_err);
             res->time.surface = omp_get_wtime() - ts;
         }
     }
