@@ -78,10 +78,13 @@ static int bits_for(int64_t count)
 /* Counts the voxels of one scale whose key hash falls in partition `part`
  * of `parts`, so that threads share the work without sharing a set. */
 static int count_partition(const double *xyz, size_t n, const int64_t base[3], double inv,
-                           const int shift[2], int part, int parts, uint64_t *count)
+                           const int shift[2], int part, int parts, size_t expect, uint64_t *count)
 {
     voxel_set set;
-    if (set_init(&set, 1 << 12) < 0)
+    size_t cap = 1 << 12;
+    while (cap < 2 * expect && cap < ((size_t)1 << 40))
+        cap <<= 1;
+    if (set_init(&set, cap) < 0)
         return -1;
     uint64_t last = KEY_EMPTY;
     for (size_t i = 0; i < n; i++) {
@@ -111,7 +114,7 @@ static int count_partition(const double *xyz, size_t n, const int64_t base[3], d
 /* Occupied voxels of edge `edge`, aligned to coordinate 0, among points
  * within [lo, hi]; 0 when the indices do not fit 63 bits. */
 static int count_scale(const double *xyz, size_t n, const double lo[3], const double hi[3],
-                       double edge, int threads, uint64_t *m)
+                       double edge, int threads, size_t expect, uint64_t *m)
 {
     double inv = 1.0 / edge;
     int64_t base[3];
@@ -131,10 +134,21 @@ static int count_scale(const double *xyz, size_t n, const double lo[3], const do
     int failed = 0;
 #pragma omp parallel for num_threads(parts) schedule(static, 1) reduction(| : failed)
     for (int t = 0; t < parts; t++)
-        failed |= count_partition(xyz, n, base, inv, shift, t, parts, &counts[t]) < 0;
+        failed |= count_partition(xyz, n, base, inv, shift, t, parts, expect / (size_t)parts,
+                                  &counts[t]) < 0;
     for (int t = 0; t < parts; t++)
         *m += counts[t];
     return failed ? -1 : 0;
+}
+
+/* A guess of the occupied voxels (to size the sets): as for a surface as
+ * large as the box's largest face, at most one voxel per point. */
+static size_t expect_voxels(size_t n, const double lo[3], const double hi[3], double edge)
+{
+    double e[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+    double face = fmax(e[0] * e[1], fmax(e[0] * e[2], e[1] * e[2]));
+    double v = face / (edge * edge);
+    return v < (double)n ? (size_t)v : n;
 }
 
 int wpd_voxel_counts(const double *xyz, size_t n, const double *edge, int nscales,
@@ -145,7 +159,7 @@ int wpd_voxel_counts(const double *xyz, size_t n, const double *edge, int nscale
     double lo[3], hi[3];
     wpd_point_bounds(xyz, NULL, n, lo, hi, threads);
     for (int s = 0; s < nscales; s++)
-        if (count_scale(xyz, n, lo, hi, edge[s], threads, &m[s]) < 0)
+        if (count_scale(xyz, n, lo, hi, edge[s], threads, expect_voxels(n, lo, hi, edge[s]), &m[s]) < 0)
             return wpd_fail(err, WPD_E_MEMORY,
                             "radius: out of memory counting voxels of %zu points", n);
     return 0;

@@ -10,9 +10,22 @@
  * The order in which Poisson candidates are visited is a hash of (seed,
  * global index), so it does not depend on how the cloud was split.
  *
- * The finer-grained steps are public too (radius.h, poisson.h, refine.h,
- * exact.h, smooth.h, sharp.h) for an engine that drives the refinement
- * with a count summed over tiles.
+ * The finer-grained steps are public too, for an engine that coordinates
+ * tiles itself:
+ *   radius   each tile's wpd_voxel_counts at a few common edges (voxels are
+ *            aligned to a shared origin), summed, then wpd_radius_from_counts
+ *            for the global n (radius.h);
+ *   passes   per tile one wpd_poisson_prepare (its points; fixed = samples
+ *            already accepted by finished neighbour tiles of an earlier
+ *            colour), then per round wpd_poisson_run(ctx, r) on every tile,
+ *            the counts summed and given to one wpd_refine_report, which
+ *            decides the next r for all (poisson.h, refine.h);
+ *   count    wpd_exact_count with a per-tile quota, or a global ranking
+ *            built from wpd_nearest_distances (exact.h);
+ *   smooth   wpd_smooth with the neighbour tiles' samples as context and a
+ *            grid over the tile's input plus halo as surface (smooth.h);
+ *   sharp    wpd_detect_sharp on the same grid (sharp.h).
+ * Or wpd_run_block per tile with params.radius set to the global radius.
  */
 #ifndef WPD_WPD_H
 #define WPD_WPD_H
