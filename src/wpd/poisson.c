@@ -8,20 +8,7 @@
 
 #include "core/grid.h"
 #include "core/hash.h"
-#include "core/sort.h"
 
-#ifdef WPD_PROFILE
-#include <stdio.h>
-#define PROF_T(i) double prof_t##i = omp_get_wtime()
-#define PROF_PRINT_PREP() fprintf(stderr, "poisson prepare: grid %.3f prio+order %.3f\n", \
-    prof_t1 - prof_t0, prof_t2 - prof_t1)
-#define PROF_PRINT_RUN() fprintf(stderr, "poisson run: greedy %.3f out %.3f\n", \
-    prof_t1 - prof_t0, prof_t2 - prof_t1)
-#else
-#define PROF_T(i) (void)0
-#define PROF_PRINT_PREP() (void)0
-#define PROF_PRINT_RUN() (void)0
-#endif
 
 /* The greedy pass is exact but visits points in bands of priority rather
  * than one by one in priority order: bands are taken in order, the points
@@ -185,10 +172,8 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
 {
     const wpd_poisson_input *in = &ps->in;
     size_t n = in->ncand;
-    PROF_T(0);
     if (wpd_grid_build(&ps->g, in->xyz, in->cand, n, r, ps->threads, err) < 0)
         return -1;
-    PROF_T(1);
     const wpd_grid *g = &ps->g;
     uint64_t seed = in->seed;
     const uint64_t *gid = in->gid;
@@ -210,8 +195,6 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
         start[b + 1] += start[b];
     for (size_t s = 0; s < n; s++)
         ps->order[start[band[s] >> 2]++] = (uint32_t)s;
-    PROF_T(2);
-    PROF_PRINT_PREP();
     return 0;
 }
 
@@ -266,13 +249,6 @@ void wpd_poisson_release(wpd_poisson *ps)
     free(ps);
 }
 
-void wpd_poisson_release_keep_grid(wpd_poisson *ps, wpd_grid *g)
-{
-    *g = ps->g;
-    memset(&ps->g, 0, sizeof ps->g);
-    wpd_poisson_release(ps);
-}
-
 size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell)
 {
     if (cell)
@@ -291,7 +267,6 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
     if (r > 1.6 * ps->g.cell || r < 0.6 * ps->g.cell)
         if (prepare_slots(ps, r, err) < 0)
             return -1;
-    PROF_T(0);
     pass_state st = {&ps->g, ps->half, ps->prio, ps->state, r, ps->stack, ps->stack_cap,
                      ps->hits, ps->hit_cap};
     memcpy(ps->state, ps->band, n);
@@ -307,14 +282,11 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
     ps->hit_cap = st.hit_cap;
     if (failed)
         return wpd_fail(err, WPD_E_MEMORY, "poisson: out of memory for the conflict lists");
-    PROF_T(1);
     size_t kept = 0;
     for (size_t s = 0; s < n; s++)
         if ((ps->state[s] & STATUS_MASK) == ACCEPTED)
             out[kept++] = ps->g.id[s];
     qsort(out, kept, sizeof *out, cmp_u32);
-    PROF_T(2);
-    PROF_PRINT_RUN();
     return (long)kept;
 }
 

@@ -20,7 +20,6 @@
 #include <stdint.h>
 
 #include "common/error.h"
-#include "core/grid.h"
 
 typedef struct wpd_poisson_input {
     const double *xyz;       /* block points, x y z each, block frame */
@@ -54,11 +53,6 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err);
 /* Occupied cells of the context's grid and (if cell is not NULL) its cell
  * edge: a voxel count at that scale, aligned to the candidates' minimum. */
 size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell);
-/* Moves the context's grid (over the candidates, source ids = their point
- * indices, cell about the radius) into *g, for reuse as a neighbour grid,
- * and releases the context. g must be zeroed or freed. */
-void wpd_poisson_release_keep_grid(wpd_poisson *ps, wpd_grid *g);
-
 /* Frees a context; NULL is fine. */
 void wpd_poisson_release(wpd_poisson *ps);
 

@@ -75,19 +75,12 @@ static int bits_for(int64_t count)
     return b;
 }
 
-/* Counts the voxels of one scale whose key hash falls in partition `part`
- * of `parts`, so that threads share the work without sharing a set. */
-static int count_partition(const double *xyz, size_t n, const int64_t base[3], double inv,
-                           const int shift[2], int part, int parts, size_t expect, uint64_t *count)
+/* Adds the voxels of points [begin, end) to set. */
+static int count_chunk(const double *xyz, size_t begin, size_t end, const int64_t base[3],
+                       double inv, const int shift[2], voxel_set *set)
 {
-    voxel_set set;
-    size_t cap = 1 << 12;
-    while (cap < 2 * expect && cap < ((size_t)1 << 40))
-        cap <<= 1;
-    if (set_init(&set, cap) < 0)
-        return -1;
     uint64_t last = KEY_EMPTY;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = begin; i < end; i++) {
         const double *p = xyz + 3 * i;
         /* Points lie above the base corner, so truncation is floor (up to
          * rounding at the very corner, which only moves a point by one voxel). */
@@ -99,20 +92,16 @@ static int count_partition(const double *xyz, size_t n, const int64_t base[3], d
         if (key == last) /* scans are coherent: points often repeat a voxel */
             continue;
         last = key;
-        if (parts > 1 && (int)((wpd_mix64(key) >> 40) % (uint64_t)parts) != part)
-            continue;
-        if (set_put(&set, key) < 0) {
-            free(set.slot);
+        if (set_put(set, key) < 0)
             return -1;
-        }
     }
-    *count = set.count;
-    free(set.slot);
     return 0;
 }
 
 /* Occupied voxels of edge `edge`, aligned to coordinate 0, among points
- * within [lo, hi]; 0 when the indices do not fit 63 bits. */
+ * within [lo, hi]; 0 when the indices do not fit 63 bits. Each thread
+ * counts a chunk of the points into its own set; the sets are then merged,
+ * so the count (of the union) does not depend on the threads. */
 static int count_scale(const double *xyz, size_t n, const double lo[3], const double hi[3],
                        double edge, int threads, size_t expect, uint64_t *m)
 {
@@ -127,17 +116,32 @@ static int count_scale(const double *xyz, size_t n, const double lo[3], const do
     if (n == 0 || b[0] + b[1] + b[2] > 63)
         return 0;
     int shift[2] = {b[0], b[0] + b[1]};
-    int parts = threads;
-    uint64_t counts[256] = {0};
-    if (parts > 256)
-        parts = 256;
+    enum { MAX_PARTS = 64 };
+    int parts = threads < 1 ? 1 : threads > MAX_PARTS ? MAX_PARTS : threads;
+    if (n < 100000)
+        parts = 1;
+    voxel_set sets[MAX_PARTS];
+    memset(sets, 0, sizeof sets);
     int failed = 0;
 #pragma omp parallel for num_threads(parts) schedule(static, 1) reduction(| : failed)
+    for (int t = 0; t < parts; t++) {
+        size_t cap = 1 << 12;
+        while (cap < 2 * expect && cap < ((size_t)1 << 40))
+            cap <<= 1;
+        if (set_init(&sets[t], cap) < 0) {
+            failed = 1;
+            continue;
+        }
+        size_t begin = n * (size_t)t / (size_t)parts, end = n * (size_t)(t + 1) / (size_t)parts;
+        failed |= count_chunk(xyz, begin, end, base, inv, shift, &sets[t]) < 0;
+    }
+    for (int t = 1; t < parts && !failed; t++)
+        for (size_t i = 0; i < sets[t].cap && !failed; i++)
+            if (sets[t].slot[i] != KEY_EMPTY)
+                failed = set_put(&sets[0], sets[t].slot[i]) < 0;
+    *m = failed ? 0 : sets[0].count;
     for (int t = 0; t < parts; t++)
-        failed |= count_partition(xyz, n, base, inv, shift, t, parts, expect / (size_t)parts,
-                                  &counts[t]) < 0;
-    for (int t = 0; t < parts; t++)
-        *m += counts[t];
+        free(sets[t].slot);
     return failed ? -1 : 0;
 }
 

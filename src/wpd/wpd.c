@@ -105,8 +105,7 @@ static int build_surface(const wpd_block *b, double cell, int k, int threads, wp
 }
 
 /* Poisson passes until the count is in [target, 1.05 target] (or the pass
- * budget runs out); the kept samples end in *out / *count, and the grid the
- * passes used (over all block points, cell ~ r) in *input_grid.
+ * budget runs out); the kept samples end in *out / *count.
  *
  * Passes over the full input share one prepared context, so a pass costs
  * only the greedy pruning. With p->prune_previous, a pass at a larger
@@ -117,8 +116,7 @@ static int build_surface(const wpd_block *b, double cell, int k, int threads, wp
  * instead of 2-3 on the NC Raleigh scan). */
 static int poisson_refined(const wpd_block *b, const uint8_t *edge, size_t target,
                            const wpd_params *p, int threads, double r0, wpd_result *res,
-                           uint32_t **out, size_t *count, wpd_grid *input_grid,
-                           wpd_error *err)
+                           uint32_t **out, size_t *count, wpd_error *err)
 {
     size_t n = b->n;
     uint32_t *work = malloc(n * sizeof *work);
@@ -157,7 +155,7 @@ static int poisson_refined(const wpd_block *b, const uint8_t *edge, size_t targe
             *out = work;
             *count = (size_t)got;
             free(super);
-            wpd_poisson_release_keep_grid(full, input_grid);
+            wpd_poisson_release(full);
             return 0;
         }
         if (status == WPD_REFINE_GAVE_UP) {
@@ -165,7 +163,7 @@ static int poisson_refined(const wpd_block *b, const uint8_t *edge, size_t targe
             *out = super;
             *count = super_count;
             free(work);
-            wpd_poisson_release_keep_grid(full, input_grid);
+            wpd_poisson_release(full);
             return 0;
         }
         if (st.superset_is_last) { /* the latest overshoot: kept for pruning or giving up */
@@ -247,7 +245,7 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
     uint8_t *edge = NULL, *sample_edge = NULL;
     uint32_t *idx = NULL;
     double *sxyz = NULL;
-    wpd_grid surface = {0}, pass_grid = {0};
+    wpd_grid surface = {0};
     size_t count = 0;
     int rc = -1;
 
@@ -303,8 +301,11 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
 #pragma omp parallel sections num_threads(2)
         {
 #pragma omp section
-            poisson_rc = poisson_refined(b, edge, target, p, threads, ri.radius, res, &idx, &count,
-                                         &pass_grid, err);
+            {
+                poisson_rc = poisson_refined(b, edge, target, p, threads, ri.radius, res, &idx,
+                                             &count, err);
+                res->time.poisson = omp_get_wtime() - t;
+            }
 #pragma omp section
             {
                 double ts = omp_get_wtime();
@@ -314,14 +315,14 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
         }
     } else {
         poisson_rc = poisson_refined(b, edge, target, p, threads, ri.radius, res, &idx, &count,
-                                     &pass_grid, err);
+                                     err);
+        res->time.poisson = omp_get_wtime() - t;
         if (poisson_rc == 0 && surface_later) {
             double ts = omp_get_wtime();
             surface_rc = build_surface(b, input_dk, p->k, threads, &surface, &surface_err);
             res->time.surface = omp_get_wtime() - ts;
         }
     }
-    wpd_grid_free(&pass_grid);
     if (poisson_rc < 0)
         goto done;
     if (surface_rc < 0) {
@@ -329,7 +330,6 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
         goto done;
     }
     res->poisson_count = count;
-    res->time.poisson = omp_get_wtime() - t;
 
     /* 4. exact count */
     t = omp_get_wtime();
@@ -373,7 +373,6 @@ done:
     free(idx);
     free(sxyz);
     wpd_grid_free(&surface);
-    wpd_grid_free(&pass_grid);
     if (rc < 0) {
         wpd_result_free(res);
     } else {

@@ -88,7 +88,9 @@ void wpd_params_default(wpd_params *p);
 /* Wall times of the steps, seconds. */
 typedef struct wpd_timings {
     double radius;            /* radius estimate */
-    double surface;           /* grid over the input for projection / sharp features */
+    double surface;           /* grid over the input for projection / sharp features
+                                 (with 2+ threads and sharp off, built during the
+                                 Poisson passes, so not part of the total) */
     double sharp;             /* sharp-feature detection */
     double poisson;           /* all Poisson passes with the refinement */
     double exact;             /* exact count */
