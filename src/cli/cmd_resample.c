@@ -4,6 +4,7 @@
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "io/writer.h"
+#include "wpd/smooth.h"
 #include "wpd/wpd.h"
 
 #include <errno.h>
@@ -32,6 +33,9 @@ static const char *usage_text =
     "      --no-smooth       Poisson sample only: no point moves\n"
     "      --sharp           detect sharp features, sample them at r/2, keep them fixed\n"
     "      --seed S          visiting order of the Poisson pass (0)\n"
+    "      --smooth-mode M   centroid (Lloyd step, default), vertex-mean (the authors'\n"
+    "                        release) or cotan (eq. 8 as printed; moves nothing)\n"
+    "      --free-surface    do not project smoothed points back onto the input surface\n"
     "      --threads T       OpenMP threads (default: all cores)\n"
     "      --ascii           ascii PLY output\n"
     "      --force           replace OUT if it exists\n"
@@ -116,11 +120,31 @@ static wpd_format format_from_name(const char *path)
     return WPD_FMT_NONE;
 }
 
+/* 1 when a PLY output's x, y or z is float32 and float32 spacing at the
+ * output's magnitude is coarser than precision: smoothed positions would
+ * be rounded away (float32 UTM northings are spaced half a metre apart). */
+static int needs_wider_coordinates(const wpd_header *out, const wpd_bounds *b, double precision)
+{
+    if (out->format != WPD_FMT_PLY)
+        return 0;
+    const wpd_schema *s = &out->schema;
+    int axes[3] = {s->dim_x, s->dim_y, s->dim_z};
+    for (int k = 0; k < 3; k++) {
+        if (axes[k] < 0 || s->dims[axes[k]].type != WPD_F32)
+            continue;
+        double mag = fmax(fabs(b->min[k]), fabs(b->max[k]));
+        if (mag > 0 && ldexp(1.0, ilogb(mag) - 23) > precision)
+            return 1;
+    }
+    return 0;
+}
+
 /* Writes the selected records (index[i] into c) with coordinates xyz (block
- * frame; NULL: unchanged) in the layout planned for the output format. */
+ * frame; NULL: unchanged) in the layout planned for the output format.
+ * precision: the coordinate resolution the moved positions need. */
 static int write_selection(const loaded_cloud *c, const wpd_header *in, const uint32_t *index,
-                           const double *xyz, size_t count, const resample_options *opt,
-                           wpd_error *err)
+                           const double *xyz, size_t count, double precision,
+                           const resample_options *opt, wpd_error *err)
 {
     wpd_bounds bounds;
     wpd_bounds_reset(&bounds);
@@ -134,6 +158,11 @@ static int write_selection(const loaded_cloud *c, const wpd_header *in, const ui
     wpd_layout_map map;
     if (wpd_layout_plan(in, &bounds, format_from_name(opt->output), &out, &map, err))
         return -1;
+    if (xyz && needs_wider_coordinates(&out, &bounds, precision) &&
+        wpd_layout_widen_coordinates(in, &out, &map, err)) {
+        wpd_header_free(&out);
+        return -1;
+    }
     wpd_batch src, dst;
     int rc = -1;
     wpd_writer *w = NULL;
@@ -203,7 +232,8 @@ static int parse_positive(const char *text, double lo, double hi, double *out)
 }
 
 enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
-       OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST };
+       OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
+       OPT_FREE_SURFACE };
 
 static int parse_option(int c, const char *arg, resample_options *o)
 {
@@ -224,6 +254,13 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_THREADS: if (parse_positive(arg, 1, 1024, &v)) return -1; p->threads = (int)v; return 0;
     case OPT_ASCII: o->write.ply_ascii = 1; return 0;
     case OPT_FORCE: o->write.overwrite = 1; return 0;
+    case OPT_SMOOTH_MODE:
+        if (!strcmp(arg, "centroid")) p->smooth_mode = WPD_SMOOTH_CENTROID;
+        else if (!strcmp(arg, "vertex-mean")) p->smooth_mode = WPD_SMOOTH_VERTEX_MEAN;
+        else if (!strcmp(arg, "cotan")) p->smooth_mode = WPD_SMOOTH_COTAN;
+        else return -1;
+        return 0;
+    case OPT_FREE_SURFACE: p->keep_on_surface = 0; return 0;
     case OPT_RADIUS_EST:
         if (!strcmp(arg, "paper")) p->radius_method = WPD_RADIUS_PAPER;
         else if (!strcmp(arg, "multiscale")) p->radius_method = WPD_RADIUS_MULTISCALE;
@@ -245,6 +282,8 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"seed", required_argument, 0, OPT_SEED}, {"threads", required_argument, 0, OPT_THREADS},
         {"ascii", no_argument, 0, OPT_ASCII}, {"force", no_argument, 0, OPT_FORCE},
         {"radius-estimate", required_argument, 0, OPT_RADIUS_EST},
+        {"smooth-mode", required_argument, 0, OPT_SMOOTH_MODE},
+        {"free-surface", no_argument, 0, OPT_FREE_SURFACE},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
     wpd_params_default(&o->params);
@@ -298,8 +337,9 @@ static void print_summary(const wpd_result *r, size_t n_in, double load_s, doubl
            "exact count)\n", r->radius, r->radius_estimate, r->first_pass_count, r->passes,
            r->poisson_count);
     if (o->params.smooth)
-        printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell)\n",
-               o->params.iterations, r->open_cells);
+        printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell), %zu pulled "
+               "back to the input surface\n", o->params.iterations, r->open_cells,
+               r->pulled_to_surface);
     if (o->params.sharp)
         printf("  sharp features: %zu input points labelled sharp\n", r->sharp_points);
     printf("  time: load %.3f s, radius %.3f, surface %.3f, sharp %.3f, poisson %.3f, exact "
@@ -339,7 +379,9 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         goto done;
     t0 = omp_get_wtime();
     const double *moved = o->params.smooth && target < c.n ? res.xyz : NULL;
-    rc = write_selection(&c, wpd_cloud_header(cloud, 0), res.index, moved, res.count, o, err);
+    /* Smoothing moves points by fractions of r: keep them to r / 1000. */
+    rc = write_selection(&c, wpd_cloud_header(cloud, 0), res.index, moved, res.count,
+                         res.radius / 1000, o, err);
     if (rc == 0 && !o->quiet)
         print_summary(&res, c.n, load_s, omp_get_wtime() - t0, o);
 done:

@@ -321,6 +321,44 @@ static int plan_ply_to_las(const wpd_header *in, const wpd_bounds *bounds, wpd_h
     return 0;
 }
 
+/* ------------------------------------------------------------------ widening */
+
+int wpd_layout_widen_coordinates(const wpd_header *in, wpd_header *out, wpd_layout_map *map,
+                                 wpd_error *err)
+{
+    if (out->format != WPD_FMT_PLY)
+        return wpd_fail(err, WPD_E_USAGE, "%s: only PLY coordinates can be widened", out->path);
+    const wpd_schema *src = &out->schema;
+    wpd_schema wide;
+    memset(&wide, 0, sizeof wide);
+    wide.dim_x = src->dim_x, wide.dim_y = src->dim_y, wide.dim_z = src->dim_z;
+    wpd_layout_map m;
+    memset(&m, 0, sizeof m);
+    uint32_t off = 0;
+    for (uint32_t i = 0; i < src->ndims; i++) {
+        int coord = is_coordinate(src, (int)i);
+        wpd_type t = coord ? WPD_F64 : src->dims[i].type;
+        int d = wpd_schema_add(&wide, src->dims[i].name, t, off);
+        off += (uint32_t)wpd_type_size(t);
+        if (coord)
+            continue;
+        /* The source of each property: the input's field of that name. */
+        int from = map->identity ? (int)i : -1;
+        double mul = 1.0;
+        for (uint32_t f = 0; !map->identity && f < map->nfields; f++)
+            if (map->fields[f].dst == (int)i) {
+                from = map->fields[f].src;
+                mul = map->fields[f].mul;
+            }
+        if (from >= 0)
+            map_add(&m, &in->schema, from, &wide, d, mul);
+    }
+    wide.record_size = off;
+    out->schema = wide;
+    *map = m;
+    return 0;
+}
+
 /* ------------------------------------------------------------------ entry points */
 
 int wpd_layout_plan(const wpd_header *in, const wpd_bounds *bounds, wpd_format fmt,

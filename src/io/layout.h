@@ -38,6 +38,14 @@ typedef struct wpd_layout_map {
 int wpd_layout_plan(const wpd_header *in, const wpd_bounds *bounds, wpd_format fmt,
                     wpd_header *out, wpd_layout_map *map, wpd_error *err);
 
+/* For a PLY output planned by wpd_layout_plan: stores x y z as double
+ * (other properties keep their types and order) and updates map. For
+ * coordinates that no longer fit the input's type - smoothed positions of
+ * float32 UTM coordinates, whose float spacing is half a metre. Returns 0,
+ * or -1 with err set. */
+int wpd_layout_widen_coordinates(const wpd_header *in, wpd_header *out, wpd_layout_map *map,
+                                 wpd_error *err);
+
 /* Converts src (input layout) into dst (output layout, capacity >= src->n):
  * every mapped field converted, unmapped output fields zero, xyz copied. */
 void wpd_layout_apply(const wpd_layout_map *map, const wpd_schema *in,

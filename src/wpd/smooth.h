@@ -56,6 +56,8 @@ typedef struct wpd_smooth_input {
 typedef struct wpd_smooth_stats {
     size_t open_cells;       /* samples kept fixed for an open cell (last iteration) */
     size_t sharp_fixed;      /* sharp-feature samples kept fixed */
+    size_t pulled_to_surface; /* samples pulled back to within the input's local
+                                 spacing of the input (see smooth.c) */
     double mean_move;        /* mean distance moved per sample over all iterations,
                                 in units of spacing */
     double normals_seconds;  /* neighbour search and normals */

@@ -361,6 +361,7 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
         if (wpd_smooth(&sm, &ss, err) < 0)
             goto done;
         res->open_cells = ss.open_cells;
+        res->pulled_to_surface = ss.pulled_to_surface;
         res->time.normals = ss.normals_seconds;
         res->time.smooth = ss.smooth_seconds;
     }

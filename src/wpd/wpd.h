@@ -112,6 +112,7 @@ typedef struct wpd_result {
     int passes;               /* Poisson passes run */
     int exact_sweeps;
     size_t open_cells;        /* samples left in place for an open Voronoi cell */
+    size_t pulled_to_surface; /* samples pulled back towards the input (smooth.c) */
     size_t sharp_points;      /* input points labelled sharp */
     wpd_timings time;
 } wpd_result;

@@ -51,7 +51,8 @@ def test_no_pair_closer_than_r_without_smoothing():
     for name in ("nc_raleigh_lidar_2269213.las", "pcl_office1_organized_nan.ply",
                  "lone-star_tile2.las"):
         src = data("scans", name)
-        out = wpd("resample", src, "-o", "out.ply", "-n", "2%", "--no-smooth").stdout
+        out = wpd("resample", src, "-o", "out.ply", "-n", "2%", "--no-smooth",
+                  "--force").stdout
         r = radius_of(out)
         m = metrics(src, "out.ply")
         assert m["min_spacing"] >= r * (1 - 1e-9), (name, m["min_spacing"], r)
@@ -61,8 +62,8 @@ def test_smoothing_evens_the_voronoi_cells_and_stays_on_the_surface():
     for name in ("nc_raleigh_lidar_2269213.las", "meshlab_rangemap_lato270.ply",
                  "wpd_conferenceRoom_1_input.ply", "pcldata_terrain_CSite1_red1-utm.ply"):
         src = data("scans", name)
-        wpd("resample", src, "-o", "raw.ply", "-n", "5%", "--no-smooth", "-q")
-        wpd("resample", src, "-o", "smooth.ply", "-n", "5%", "-q")
+        wpd("resample", src, "-o", "raw.ply", "-n", "5%", "--no-smooth", "-q", "--force")
+        wpd("resample", src, "-o", "smooth.ply", "-n", "5%", "-q", "--force")
         raw, smooth = metrics(src, "raw.ply"), metrics(src, "smooth.ply")
         assert smooth["voronoi_area"]["cv"] < raw["voronoi_area"]["cv"], (
             name, raw["voronoi_area"]["cv"], smooth["voronoi_area"]["cv"])
