@@ -4,3 +4,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p bench/out
 bench/io_read.sh | tee bench/out/io_read.txt
+bench/core.sh | tee bench/out/core.txt
