@@ -328,6 +328,25 @@ static int output_is_input(char **inputs, int n, const char *out)
     return 0;
 }
 
+/* The lattice the output stores coordinates on, in the block frame: a LAS
+ * output written with the input's scale puts points on multiples of it from
+ * the origin, which is an input point (the minimum corner of the first
+ * file's points when all share one scale and offset). 0: exact enough. */
+static void output_lattice(wpd_cloud *cloud, const resample_options *o, double res[3])
+{
+    const wpd_header *first = wpd_cloud_header(cloud, 0);
+    res[0] = res[1] = res[2] = 0;
+    if (first->format != WPD_FMT_LAS || format_from_name(o->output) != WPD_FMT_LAS)
+        return;
+    for (int i = 1; i < wpd_cloud_nfiles(cloud); i++)
+        for (int k = 0; k < 3; k++)
+            if (wpd_cloud_header(cloud, i)->las.scale[k] != first->las.scale[k] ||
+                wpd_cloud_header(cloud, i)->las.offset[k] != first->las.offset[k])
+                return;
+    for (int k = 0; k < 3; k++)
+        res[k] = first->las.scale[k];
+}
+
 static void print_summary(const wpd_result *r, size_t n_in, double load_s, double write_s,
                           const resample_options *o)
 {
@@ -374,6 +393,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (target >= c.n && !o->quiet)
         fprintf(stderr, "wpd resample: notice: -n %llu >= %zu input points: copying the "
                 "input\n", (unsigned long long)target, c.n);
+    output_lattice(cloud, o, o->params.resolution);
     wpd_block block = {.n = c.n, .xyz = c.xyz, .gid = c.gid};
     if (wpd_run_block(&block, target, &o->params, &res, err))
         goto done;

@@ -256,24 +256,38 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
     return sqrt(d2);
 }
 
-static size_t clamp_to_surface(const wpd_grid *surface, double *pos, size_t n, int threads)
+/* p rounded to the output's lattice (multiples of res per axis in the
+ * block frame, which starts at an input point); unchanged where res is 0. */
+static void round_to_output(const double res[3], const double p[3], double out[3])
+{
+    for (int a = 0; a < 3; a++)
+        out[a] = res[a] > 0 ? nearbyint(p[a] / res[a]) * res[a] : p[a];
+}
+
+static size_t clamp_to_surface(const wpd_grid *surface, double *pos, size_t n,
+                               const double res[3], int threads)
 {
     size_t pulled = 0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : pulled)
     for (size_t o = 0; o < n; o++) {
         double *p = pos + 3 * o;
-        /* Pulling p changes its nearest input point, whose spacing may be
-         * smaller: a few rounds, then onto the input point itself. Pulling
-         * to 0.99 of the spacing leaves room for the output's rounding. */
+        /* The position is judged as the output will store it. Pulling p
+         * changes its nearest input point, whose spacing may be smaller: a
+         * few rounds, then onto the input point itself (exact in any output:
+         * it is an input point). */
         for (int round = 0;; round++) {
             uint32_t near;
-            double spacing = 0, d = nearest_with_spacing(surface, p, &near, &spacing);
-            if (d <= spacing)
+            double stored[3], spacing = 0;
+            round_to_output(res, p, stored);
+            double d = nearest_with_spacing(surface, stored, &near, &spacing);
+            if (d <= spacing) {
+                memcpy(p, stored, sizeof stored);
                 break;
+            }
             const double *q = surface->xyz + 3 * (size_t)near;
             double f = round < 4 ? 0.99 * spacing / d : 0;
             for (int a = 0; a < 3; a++)
-                p[a] = q[a] + (p[a] - q[a]) * f;
+                p[a] = q[a] + (stored[a] - q[a]) * f;
             pulled += round == 0;
             if (f == 0)
                 break;
@@ -327,7 +341,8 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
         stats->open_cells = open;
     }
     if (in->surface)
-        stats->pulled_to_surface = clamp_to_surface(in->surface, prev, n, threads);
+        stats->pulled_to_surface =
+            clamp_to_surface(in->surface, prev, n, in->resolution, threads);
     for (size_t o = 0; o < n; o++)
         memcpy(in->xyz + 3 * (size_t)f.perm[o], prev + 3 * o, 3 * sizeof *in->xyz);
     /* prev and next are f.pos and the scratch, in some order: free both. */

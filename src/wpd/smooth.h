@@ -51,6 +51,9 @@ typedef struct wpd_smooth_input {
     int iterations;          /* 5 */
     double spacing;          /* typical sample spacing (the radius): grid hint */
     int threads;             /* <= 0: OpenMP default */
+    double resolution[3];    /* the output stores coordinates as multiples of these
+                                per axis in the block frame (LAS scale); 0: exact.
+                                The surface guarantee judges rounded positions. */
 } wpd_smooth_input;
 
 typedef struct wpd_smooth_stats {

@@ -356,7 +356,8 @@ int wpd_run_block(const wpd_block *b, size_t target, const wpd_params *p,
         wpd_smooth_input sm = {sxyz, count, sample_edge, b->ctx_xyz, b->nctx,
                                p->keep_on_surface ? &surface : NULL, input_dk,
                                (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations,
-                               res->radius, threads};
+                               res->radius, threads,
+                               {p->resolution[0], p->resolution[1], p->resolution[2]}};
         wpd_smooth_stats ss;
         if (wpd_smooth(&sm, &ss, err) < 0)
             goto done;

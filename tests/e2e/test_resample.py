@@ -71,6 +71,14 @@ def test_smoothing_evens_the_voronoi_cells_and_stays_on_the_surface():
         assert drift["over_local_spacing"] == 0, (name, drift)
 
 
+def test_las_output_stays_on_the_surface_after_quantisation():
+    # LAS output rounds moved points to the input's scale: still no drift.
+    for name in ("lone-star_tile1.las", "nc_raleigh_lidar_2269213.las"):
+        src = data("scans", name)
+        wpd("resample", src, "-o", "out.las", "-n", "5%", "-q", "--force")
+        assert metrics(src, "out.las")["drift"]["over_local_spacing"] == 0, name
+
+
 def test_same_bytes_for_threads_and_seed():
     src = data("scans", "lone-star_tile1.las")
     wpd("resample", src, "-o", "t1.las", "-n", 5000, "--threads", 1, "-q")
