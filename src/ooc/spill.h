@@ -1,0 +1,86 @@
+/* spill.h - per-tile spill files of point data, compressed with zstd.
+ *
+ * The tiler appends points to tiles in any order; each tile's points are
+ * buffered and written as compressed chunks to a file of its own inside a
+ * private spill directory. A tile is later read back whole, in the order
+ * its points were appended, either its coordinates only (the Poisson passes
+ * need nothing else) or its coordinates and full records (the last pass,
+ * which needs the attributes of the selected points). Memory: one buffer
+ * per tile (buffer_bytes) while writing; reading allocates only what the
+ * caller asks for.
+ *
+ * Every point carries: its global index (uint64, increasing within a tile
+ * because the tiler appends in input order), x y z (double, frame
+ * coordinates), a halo flag (1: the point belongs to a neighbouring tile
+ * and is only context here) and its record (record_size bytes).
+ */
+#ifndef WPD_SPILL_H
+#define WPD_SPILL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+
+typedef struct wpd_spill wpd_spill;
+
+typedef struct wpd_spill_options {
+    int level;               /* zstd level (see spill.c for the measured choice) */
+    size_t buffer_bytes;     /* per-tile write buffer (uncompressed) */
+    int threads;             /* compression threads for wpd_spill_flush_full */
+} wpd_spill_options;
+
+/* Fills o with the measured defaults. */
+void wpd_spill_default_options(wpd_spill_options *o);
+
+/* Creates ntiles empty tiles in a new private directory under base_dir
+ * ("<base_dir>/wpd-spill-<pid>-XXXXXX"). The directory is registered with
+ * the process's cleanup (tmpdir.h) so it is removed on exit, on SIGINT and
+ * SIGTERM, and by wpd_spill_destroy. Returns NULL with err set (WPD_E_IO). */
+wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_size,
+                            const wpd_spill_options *opt, wpd_error *err);
+
+/* Appends n points to tile t. Arrays: gid[n], xyz[3n], halo[n] (NULL: all
+ * 0), records[n * record_size]. Compresses and writes the tile's buffer when
+ * it fills. Not thread-safe (one tiler thread). Returns 0 or -1 (err set,
+ * disk full reported as such). */
+int wpd_spill_append(wpd_spill *s, int t, const uint64_t *gid, const double *xyz,
+                     const uint8_t *halo, const uint8_t *records, size_t n, wpd_error *err);
+
+/* Writes every tile's remaining buffered points; after it the spill is
+ * read-only. Returns 0 or -1. */
+int wpd_spill_finish(wpd_spill *s, wpd_error *err);
+
+/* A tile read back: arrays owned by the caller (free with wpd_tile_data_free). */
+typedef struct wpd_tile_data {
+    size_t n;                /* points (home and halo) */
+    uint64_t *gid;           /* [n] */
+    double *xyz;             /* [3n] */
+    uint8_t *halo;           /* [n] */
+    uint8_t *records;        /* [n * record_size], NULL unless asked for */
+} wpd_tile_data;
+
+/* Reads tile t whole (after wpd_spill_finish). with_records: also the
+ * records. Safe to call from several threads for different (or the same)
+ * tiles. Returns 0 or -1 (err set: I/O error, corrupt chunk, out of memory). */
+int wpd_spill_read(const wpd_spill *s, int t, int with_records, wpd_tile_data *out,
+                   wpd_error *err);
+
+void wpd_tile_data_free(wpd_tile_data *d);
+
+/* Points appended to tile t so far. */
+uint64_t wpd_spill_count(const wpd_spill *s, int t);
+
+typedef struct wpd_spill_stats {
+    uint64_t points;         /* appended over all tiles */
+    uint64_t raw_bytes;      /* uncompressed bytes of what was written */
+    uint64_t disk_bytes;     /* compressed bytes on disk */
+    double compress_seconds, write_seconds;
+} wpd_spill_stats;
+
+void wpd_spill_get_stats(const wpd_spill *s, wpd_spill_stats *st);
+
+/* Removes every file and the directory, frees everything. NULL allowed. */
+void wpd_spill_destroy(wpd_spill *s);
+
+#endif

@@ -1,0 +1,33 @@
+/* tmpdir.h - private temporary directories removed on every exit path.
+ *
+ * A run's spill directory must disappear whether the run succeeds, fails,
+ * or is stopped by SIGINT, SIGTERM or SIGHUP; and one left behind by a run
+ * that was killed outright (SIGKILL, power loss) must be recognised and
+ * removed by a later run. This module keeps the one piece of process-wide
+ * state wpd has - the list of directories to remove, which a signal handler
+ * must be able to reach - and nothing else.
+ */
+#ifndef WPD_TMPDIR_H
+#define WPD_TMPDIR_H
+
+#include <stddef.h>
+
+#include "common/error.h"
+
+/* Creates "<base>/<prefix>-<pid>-XXXXXX" (mode 0700), registers it for
+ * removal and writes its path to out (size outlen). Installs the signal
+ * handlers on first use: on SIGINT/SIGTERM/SIGHUP every registered
+ * directory is emptied and removed (async-signal-safe), then the signal is
+ * re-raised with the default action so the exit status says what happened
+ * (130 / 143 from a shell). Returns 0 or -1 (WPD_E_IO naming base). */
+int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t outlen,
+                      wpd_error *err);
+
+/* Empties and removes a directory created above and unregisters it. */
+void wpd_tmpdir_remove(const char *path);
+
+/* Removes "<base>/<prefix>-<pid>-*" directories whose pid is no longer a
+ * running process (left by a killed run). Returns how many were removed. */
+int wpd_tmpdir_sweep_stale(const char *base, const char *prefix);
+
+#endif
