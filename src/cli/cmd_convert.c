@@ -1,5 +1,6 @@
 /* cmd_convert.c - `wpd convert IN... OUT`: streaming format conversion. */
 #include "cli/commands.h"
+#include "common/outfile.h"
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "io/writer.h"
@@ -8,7 +9,6 @@
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/stat.h>
 
 static const char *usage_text =
     "usage: wpd convert [--ascii] [--force] IN... OUT\n"
@@ -20,29 +20,6 @@ static const char *usage_text =
     "bytes. Points with non-finite coordinates are dropped with a warning.\n"
     "  --ascii   write ascii PLY (default: binary little-endian)\n"
     "  --force   replace OUT if it exists\n";
-
-/* Output format from the file name's extension. */
-static wpd_format format_from_name(const char *path)
-{
-    const char *dot = strrchr(path, '.');
-    if (dot && !strcasecmp(dot, ".las"))
-        return WPD_FMT_LAS;
-    if (dot && !strcasecmp(dot, ".ply"))
-        return WPD_FMT_PLY;
-    return WPD_FMT_NONE;
-}
-
-/* Refuses an output that is one of the inputs: it would be destroyed. */
-static int check_output_not_input(char **inputs, int n, const char *out, wpd_error *err)
-{
-    struct stat so, si;
-    if (stat(out, &so) != 0)
-        return 0;
-    for (int i = 0; i < n; i++)
-        if (stat(inputs[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
-            return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", out);
-    return 0;
-}
 
 static int stream_points(wpd_cloud *cloud, const wpd_header *in, const wpd_header *out,
                          const wpd_layout_map *map, wpd_writer *w, wpd_error *err)
@@ -70,11 +47,11 @@ static int stream_points(wpd_cloud *cloud, const wpd_header *in, const wpd_heade
 static int convert(char **inputs, int n, const char *output, wpd_write_options *wopt,
                    wpd_error *err)
 {
-    wpd_format fmt = format_from_name(output);
+    wpd_format fmt = wpd_format_from_name(output);
     if (fmt == WPD_FMT_NONE)
         return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las or .ply", output);
-    if (check_output_not_input(inputs, n, output, err))
-        return -1;
+    if (wpd_path_is_one_of(output, inputs, n))
+        return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", output);
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, n, err);
     if (!cloud)
         return -1;

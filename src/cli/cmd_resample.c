@@ -1,9 +1,12 @@
 /* cmd_resample.c - `wpd resample IN... -o OUT -n N`: Weighted Poisson-disk
  * resampling of a cloud held in memory (one block). */
 #include "cli/commands.h"
+#include "cli/report.h"
+#include "cli/selection.h"
+#include "common/outfile.h"
 #include "io/cloud.h"
 #include "io/layout.h"
-#include "io/writer.h"
+#include "ooc/engine.h"
 #include "wpd/smooth.h"
 #include "wpd/wpd.h"
 
@@ -15,7 +18,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/stat.h>
+#include <libgen.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 static const char *usage_text =
     "usage: wpd resample IN... -o OUT -n N [options]\n"
@@ -23,6 +28,8 @@ static const char *usage_text =
     "with even, isotropic spacing (Weighted Poisson-disk resampling), keeping every\n"
     "attribute of each selected point; coordinates move by the tangent smoothing.\n"
     "  -o, --output FILE     output (.las or .ply); must not exist unless --force\n"
+    "      --per-input DIR   instead of -o: one output per input file in DIR (same\n"
+    "                        name), holding the resampled points that fall in it\n"
     "  -n, --count N         points to keep: a number (k, M suffixes) or a\n"
     "                        percentage of the input (\"10%\"); N >= input copies it\n"
     "      --lambda L        area overlap factor of the radius estimate (0.68)\n"
@@ -37,27 +44,202 @@ static const char *usage_text =
     "                        release) or cotan (eq. 8 as printed; moves nothing)\n"
     "      --free-surface    do not project smoothed points back onto the input surface\n"
     "      --threads T       OpenMP threads (default: all cores)\n"
+    "      --mem SIZE        memory budget, e.g. 512M, 2G (default: a quarter of the\n"
+    "                        physical memory, at most 4G); larger inputs are tiled\n"
+    "      --tmpdir DIR      where spill files go (default: $TMPDIR, else the\n"
+    "                        output's directory)\n"
+    "      --min-tiles N     use the tiled engine with at least N tiles\n"
+    "      --report FILE     write what the run did as JSON (docs/report.md)\n"
     "      --ascii           ascii PLY output\n"
     "      --force           replace OUT if it exists\n"
     "  -q, --quiet           print nothing on success\n";
 
 typedef struct resample_options {
-    const char *output;
+    const char *output;       /* one output, or NULL with per_input */
+    const char *per_input;    /* directory for one output per input */
     const char *count_text;
+    const char *tmpdir;
+    const char *report;       /* JSON report path, or NULL */
+    size_t mem_bytes;         /* 0: default */
+    int min_tiles;
     int quiet;
     wpd_params params;
     wpd_write_options write;
 } resample_options;
 
-/* ---------------------------------------------------------------- loading */
+/* ---------------------------------------------------------------- options */
+
+/* Parses "N", "Nk", "NM" or "P%" of total. Returns 0 or -1. */
+static int parse_count(const char *text, uint64_t total, uint64_t *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(text, &end);
+    if (end == text || errno || !isfinite(v) || v < 0)
+        return -1;
+    if (*end == '%' && !end[1])
+        v = nearbyint(v / 100.0 * (double)total);
+    else if ((*end == 'k' || *end == 'K') && !end[1])
+        v *= 1e3;
+    else if (*end == 'M' && !end[1])
+        v *= 1e6;
+    else if (*end)
+        return -1;
+    if (v != floor(v) || v > 1e18)
+        return -1;
+    *out = (uint64_t)v;
+    return 0;
+}
+
+/* Parses a byte size: a number with an optional K, M, G or T suffix
+ * (powers of 1024). Returns 0 or -1. */
+static int parse_size(const char *text, size_t *out)
+{
+    char *end;
+    double v = strtod(text, &end);
+    if (end == text || !(v > 0))
+        return -1;
+    static const char units[] = "KMGT";
+    const char *u = *end ? strchr(units, *end == 'k' ? 'K' : *end) : NULL;
+    if (*end && (!u || (end[1] && strcmp(end + 1, "B") && strcmp(end + 1, "iB"))))
+        return -1;
+    if (u)
+        v *= pow(1024.0, (double)(u - units + 1));
+    if (v > 1e18)
+        return -1;
+    *out = (size_t)v;
+    return 0;
+}
+
+static int parse_positive(const char *text, double lo, double hi, double *out)
+{
+    char *end;
+    double v = strtod(text, &end);
+    if (end == text || *end || !(v >= lo && v <= hi))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
+       OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
+       OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT };
+
+static int parse_option(int c, const char *arg, resample_options *o)
+{
+    wpd_params *p = &o->params;
+    double v;
+    switch (c) {
+    case 'o': o->output = arg; return 0;
+    case 'n': o->count_text = arg; return 0;
+    case 'q': o->quiet = 1; return 0;
+    case 'k': if (parse_positive(arg, 3, 64, &v)) return -1; p->k = (int)v; return 0;
+    case OPT_LAMBDA: return parse_positive(arg, 1e-3, 1e3, &p->lambda);
+    case OPT_VOXEL: return parse_positive(arg, 1e-6, 1, &p->voxel_frac);
+    case OPT_ITER: if (parse_positive(arg, 0, 1000, &v)) return -1; p->iterations = (int)v; return 0;
+    case OPT_NOSMOOTH: p->smooth = 0; return 0;
+    case OPT_SHARP: p->sharp = 1; return 0;
+    case OPT_SEED: if (parse_positive(arg, 0, 1.8e19, &v)) return -1;
+        p->seed = strtoull(arg, NULL, 10); return 0;
+    case OPT_THREADS: if (parse_positive(arg, 1, 1024, &v)) return -1; p->threads = (int)v; return 0;
+    case OPT_ASCII: o->write.ply_ascii = 1; return 0;
+    case OPT_FORCE: o->write.overwrite = 1; return 0;
+    case OPT_SMOOTH_MODE:
+        if (!strcmp(arg, "centroid")) p->smooth_mode = WPD_SMOOTH_CENTROID;
+        else if (!strcmp(arg, "vertex-mean")) p->smooth_mode = WPD_SMOOTH_VERTEX_MEAN;
+        else if (!strcmp(arg, "cotan")) p->smooth_mode = WPD_SMOOTH_COTAN;
+        else return -1;
+        return 0;
+    case OPT_FREE_SURFACE: p->keep_on_surface = 0; return 0;
+    case OPT_PER_INPUT: o->per_input = arg; return 0;
+    case OPT_TMPDIR: o->tmpdir = arg; return 0;
+    case OPT_REPORT: o->report = arg; return 0;
+    case OPT_MEM: return parse_size(arg, &o->mem_bytes);
+    case OPT_MIN_TILES: if (parse_positive(arg, 1, 1e6, &v)) return -1; o->min_tiles = (int)v; return 0;
+    case OPT_RADIUS_EST:
+        if (!strcmp(arg, "paper")) p->radius_method = WPD_RADIUS_PAPER;
+        else if (!strcmp(arg, "multiscale")) p->radius_method = WPD_RADIUS_MULTISCALE;
+        else return -1;
+        return 0;
+    default: return -1;
+    }
+}
+
+/* Fills o from argv; returns -1 (usage printed) on error, 1 for --help. */
+static int parse_args(int argc, char **argv, resample_options *o, int *first_input)
+{
+    static const struct option longopts[] = {
+        {"output", required_argument, 0, 'o'}, {"count", required_argument, 0, 'n'},
+        {"quiet", no_argument, 0, 'q'}, {"lambda", required_argument, 0, OPT_LAMBDA},
+        {"voxel-frac", required_argument, 0, OPT_VOXEL},
+        {"iterations", required_argument, 0, OPT_ITER},
+        {"no-smooth", no_argument, 0, OPT_NOSMOOTH}, {"sharp", no_argument, 0, OPT_SHARP},
+        {"seed", required_argument, 0, OPT_SEED}, {"threads", required_argument, 0, OPT_THREADS},
+        {"ascii", no_argument, 0, OPT_ASCII}, {"force", no_argument, 0, OPT_FORCE},
+        {"radius-estimate", required_argument, 0, OPT_RADIUS_EST},
+        {"smooth-mode", required_argument, 0, OPT_SMOOTH_MODE},
+        {"free-surface", no_argument, 0, OPT_FREE_SURFACE},
+        {"per-input", required_argument, 0, OPT_PER_INPUT}, {"mem", required_argument, 0, OPT_MEM},
+        {"tmpdir", required_argument, 0, OPT_TMPDIR}, {"report", required_argument, 0, OPT_REPORT},
+        {"min-tiles", required_argument, 0, OPT_MIN_TILES},
+        {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+    memset(o, 0, sizeof *o);
+    wpd_params_default(&o->params);
+    int c, idx;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "o:n:k:qh", longopts, &idx)) != -1) {
+        if (c == 'h') {
+            fputs(usage_text, stdout);
+            return 1;
+        }
+        if (c == '?' || parse_option(c, optarg, o)) {
+            if (c != '?')
+                fprintf(stderr, "wpd resample: invalid value '%s' for %s\n", optarg,
+                        c < 256 ? (char[]){'-', (char)c, 0} : longopts[idx].name);
+            fputs(usage_text, stderr);
+            return -1;
+        }
+    }
+    if (optind >= argc || !o->count_text || !o->output == !o->per_input) {
+        fprintf(stderr, "wpd resample: need inputs, -n N and one of -o OUT or --per-input DIR\n");
+        fputs(usage_text, stderr);
+        return -1;
+    }
+    if (o->output && wpd_format_from_name(o->output) == WPD_FMT_NONE) {
+        fprintf(stderr, "wpd resample: %s: output must end in .las or .ply\n", o->output);
+        return -1;
+    }
+    *first_input = optind;
+    return 0;
+}
+
+
+/* ---------------------------------------------------------------- running */
+
+/* A quarter of the physical memory, at most 4 GiB: room for the other jobs
+ * of a shared server. */
+static size_t default_mem(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    size_t quarter = pages > 0 && page > 0 ? (size_t)pages * (size_t)page / 4 : (size_t)1 << 30;
+    return quarter < ((size_t)4 << 30) ? quarter : (size_t)4 << 30;
+}
+
+/* Memory the one-block path needs for n points of record_size bytes:
+ * records and coordinates, the Poisson and surface grids (measured: 273 MB
+ * peak for the 2.27 M-point NC Raleigh scan to 100 K, 38-byte records). */
+static size_t in_memory_bytes(uint64_t n, uint32_t record_size)
+{
+    return (size_t)n * (record_size + 110) + ((size_t)32 << 20);
+}
 
 /* The whole cloud in memory: records and coordinates relative to origin. */
 typedef struct loaded_cloud {
     size_t n;
     uint32_t record_size;
     uint8_t *records;
-    double *xyz;              /* relative to origin */
-    uint64_t *gid;            /* 0..n-1 */
+    double *xyz;
+    uint64_t *gid;
     double origin[3];
 } loaded_cloud;
 
@@ -108,235 +290,15 @@ static int load_cloud(wpd_cloud *cloud, loaded_cloud *out, wpd_error *err)
     return 0;
 }
 
-/* ---------------------------------------------------------------- writing */
-
-static wpd_format format_from_name(const char *path)
-{
-    const char *dot = strrchr(path, '.');
-    if (dot && !strcasecmp(dot, ".las"))
-        return WPD_FMT_LAS;
-    if (dot && !strcasecmp(dot, ".ply"))
-        return WPD_FMT_PLY;
-    return WPD_FMT_NONE;
-}
-
-/* 1 when a PLY output's x, y or z is float32 and float32 spacing at the
- * output's magnitude is coarser than precision: smoothed positions would
- * be rounded away (float32 UTM northings are spaced half a metre apart). */
-static int needs_wider_coordinates(const wpd_header *out, const wpd_bounds *b, double precision)
-{
-    if (out->format != WPD_FMT_PLY)
-        return 0;
-    const wpd_schema *s = &out->schema;
-    int axes[3] = {s->dim_x, s->dim_y, s->dim_z};
-    for (int k = 0; k < 3; k++) {
-        if (axes[k] < 0 || s->dims[axes[k]].type != WPD_F32)
-            continue;
-        double mag = fmax(fabs(b->min[k]), fabs(b->max[k]));
-        if (mag > 0 && ldexp(1.0, ilogb(mag) - 23) > precision)
-            return 1;
-    }
-    return 0;
-}
-
-/* Writes the selected records (index[i] into c) with coordinates xyz (block
- * frame; NULL: unchanged) in the layout planned for the output format.
- * precision: the coordinate resolution the moved positions need. */
-static int write_selection(const loaded_cloud *c, const wpd_header *in, const uint32_t *index,
-                           const double *xyz, size_t count, double precision,
-                           const resample_options *opt, wpd_error *err)
-{
-    wpd_bounds bounds;
-    wpd_bounds_reset(&bounds);
-    for (size_t i = 0; i < count; i++) {
-        double p[3];
-        for (int k = 0; k < 3; k++)
-            p[k] = (xyz ? xyz[3 * i + k] : c->xyz[3 * index[i] + k]) + c->origin[k];
-        wpd_bounds_add(&bounds, p, 1);
-    }
-    wpd_header out;
-    wpd_layout_map map;
-    if (wpd_layout_plan(in, &bounds, format_from_name(opt->output), &out, &map, err))
-        return -1;
-    if (xyz && needs_wider_coordinates(&out, &bounds, precision) &&
-        wpd_layout_widen_coordinates(in, &out, &map, err)) {
-        wpd_header_free(&out);
-        return -1;
-    }
-    wpd_batch src, dst;
-    int rc = -1;
-    wpd_writer *w = NULL;
-    if (wpd_batch_init(&src, 65536, in->schema.record_size) ||
-        wpd_batch_init(&dst, 65536, out.schema.record_size)) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory");
-        goto done;
-    }
-    if (!(w = wpd_writer_open(opt->output, &out, &opt->write, err)))
-        goto done;
-    for (size_t start = 0; start < count; start += src.cap) {
-        src.n = count - start < src.cap ? count - start : src.cap;
-        for (size_t i = 0; i < src.n; i++) {
-            uint32_t j = index[start + i];
-            memcpy(src.records + i * src.record_size, c->records + (size_t)j * c->record_size,
-                   c->record_size);
-            for (int k = 0; k < 3; k++)
-                src.xyz[3 * i + k] =
-                    (xyz ? xyz[3 * (start + i) + k] : c->xyz[3 * j + k]) + c->origin[k];
-        }
-        wpd_layout_apply(&map, &in->schema, &out.schema, &src, &dst);
-        if (wpd_writer_write(w, &dst, err))
-            goto done;
-    }
-    rc = wpd_writer_close(w, err);
-    w = NULL;
-done:
-    wpd_writer_abort(w);
-    wpd_batch_free(&src);
-    wpd_batch_free(&dst);
-    wpd_header_free(&out);
-    return rc;
-}
-
-/* ---------------------------------------------------------------- options */
-
-/* Parses "N", "Nk", "NM" or "P%" of total. Returns 0 or -1. */
-static int parse_count(const char *text, uint64_t total, uint64_t *out)
-{
-    char *end;
-    errno = 0;
-    double v = strtod(text, &end);
-    if (end == text || errno || !isfinite(v) || v < 0)
-        return -1;
-    if (*end == '%' && !end[1])
-        v = nearbyint(v / 100.0 * (double)total);
-    else if ((*end == 'k' || *end == 'K') && !end[1])
-        v *= 1e3;
-    else if (*end == 'M' && !end[1])
-        v *= 1e6;
-    else if (*end)
-        return -1;
-    if (v != floor(v) || v > 1e18)
-        return -1;
-    *out = (uint64_t)v;
-    return 0;
-}
-
-static int parse_positive(const char *text, double lo, double hi, double *out)
-{
-    char *end;
-    double v = strtod(text, &end);
-    if (end == text || *end || !(v >= lo && v <= hi))
-        return -1;
-    *out = v;
-    return 0;
-}
-
-enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
-       OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
-       OPT_FREE_SURFACE };
-
-static int parse_option(int c, const char *arg, resample_options *o)
-{
-    wpd_params *p = &o->params;
-    double v;
-    switch (c) {
-    case 'o': o->output = arg; return 0;
-    case 'n': o->count_text = arg; return 0;
-    case 'q': o->quiet = 1; return 0;
-    case 'k': if (parse_positive(arg, 3, 64, &v)) return -1; p->k = (int)v; return 0;
-    case OPT_LAMBDA: return parse_positive(arg, 1e-3, 1e3, &p->lambda);
-    case OPT_VOXEL: return parse_positive(arg, 1e-6, 1, &p->voxel_frac);
-    case OPT_ITER: if (parse_positive(arg, 0, 1000, &v)) return -1; p->iterations = (int)v; return 0;
-    case OPT_NOSMOOTH: p->smooth = 0; return 0;
-    case OPT_SHARP: p->sharp = 1; return 0;
-    case OPT_SEED: if (parse_positive(arg, 0, 1.8e19, &v)) return -1;
-        p->seed = strtoull(arg, NULL, 10); return 0;
-    case OPT_THREADS: if (parse_positive(arg, 1, 1024, &v)) return -1; p->threads = (int)v; return 0;
-    case OPT_ASCII: o->write.ply_ascii = 1; return 0;
-    case OPT_FORCE: o->write.overwrite = 1; return 0;
-    case OPT_SMOOTH_MODE:
-        if (!strcmp(arg, "centroid")) p->smooth_mode = WPD_SMOOTH_CENTROID;
-        else if (!strcmp(arg, "vertex-mean")) p->smooth_mode = WPD_SMOOTH_VERTEX_MEAN;
-        else if (!strcmp(arg, "cotan")) p->smooth_mode = WPD_SMOOTH_COTAN;
-        else return -1;
-        return 0;
-    case OPT_FREE_SURFACE: p->keep_on_surface = 0; return 0;
-    case OPT_RADIUS_EST:
-        if (!strcmp(arg, "paper")) p->radius_method = WPD_RADIUS_PAPER;
-        else if (!strcmp(arg, "multiscale")) p->radius_method = WPD_RADIUS_MULTISCALE;
-        else return -1;
-        return 0;
-    default: return -1;
-    }
-}
-
-/* Fills o from argv; returns -1 (usage printed) on error, 1 for --help. */
-static int parse_args(int argc, char **argv, resample_options *o, int *first_input)
-{
-    static const struct option longopts[] = {
-        {"output", required_argument, 0, 'o'}, {"count", required_argument, 0, 'n'},
-        {"quiet", no_argument, 0, 'q'}, {"lambda", required_argument, 0, OPT_LAMBDA},
-        {"voxel-frac", required_argument, 0, OPT_VOXEL},
-        {"iterations", required_argument, 0, OPT_ITER},
-        {"no-smooth", no_argument, 0, OPT_NOSMOOTH}, {"sharp", no_argument, 0, OPT_SHARP},
-        {"seed", required_argument, 0, OPT_SEED}, {"threads", required_argument, 0, OPT_THREADS},
-        {"ascii", no_argument, 0, OPT_ASCII}, {"force", no_argument, 0, OPT_FORCE},
-        {"radius-estimate", required_argument, 0, OPT_RADIUS_EST},
-        {"smooth-mode", required_argument, 0, OPT_SMOOTH_MODE},
-        {"free-surface", no_argument, 0, OPT_FREE_SURFACE},
-        {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
-    memset(o, 0, sizeof *o);
-    wpd_params_default(&o->params);
-    int c, idx;
-    optind = 1;
-    while ((c = getopt_long(argc, argv, "o:n:k:qh", longopts, &idx)) != -1) {
-        if (c == 'h') {
-            fputs(usage_text, stdout);
-            return 1;
-        }
-        if (c == '?' || parse_option(c, optarg, o)) {
-            if (c != '?')
-                fprintf(stderr, "wpd resample: invalid value '%s' for %s\n", optarg,
-                        c < 256 ? (char[]){'-', (char)c, 0} : longopts[idx].name);
-            fputs(usage_text, stderr);
-            return -1;
-        }
-    }
-    if (optind >= argc || !o->output || !o->count_text) {
-        fprintf(stderr, "wpd resample: need inputs, -o OUT and -n N\n");
-        fputs(usage_text, stderr);
-        return -1;
-    }
-    if (format_from_name(o->output) == WPD_FMT_NONE) {
-        fprintf(stderr, "wpd resample: %s: output must end in .las or .ply\n", o->output);
-        return -1;
-    }
-    *first_input = optind;
-    return 0;
-}
-
-/* ---------------------------------------------------------------- running */
-
-static int output_is_input(char **inputs, int n, const char *out)
-{
-    struct stat so, si;
-    if (stat(out, &so) != 0)
-        return 0;
-    for (int i = 0; i < n; i++)
-        if (stat(inputs[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
-            return 1;
-    return 0;
-}
-
-/* The lattice the output stores coordinates on, in the block frame: a LAS
- * output written with the input's scale puts points on multiples of it from
- * the origin, which is an input point (the minimum corner of the first
- * file's points when all share one scale and offset). 0: exact enough. */
+/* The lattice the output stores coordinates on, in the frame whose origin
+ * is the minimum corner (an input point): multiples of the LAS scale when a
+ * LAS output keeps the inputs' common scale and offset; 0 otherwise. */
 static void output_lattice(wpd_cloud *cloud, const resample_options *o, double res[3])
 {
     const wpd_header *first = wpd_cloud_header(cloud, 0);
     res[0] = res[1] = res[2] = 0;
-    if (first->format != WPD_FMT_LAS || format_from_name(o->output) != WPD_FMT_LAS)
+    const char *out = o->output ? o->output : first->path; /* per input: same format */
+    if (first->format != WPD_FMT_LAS || wpd_format_from_name(out) != WPD_FMT_LAS)
         return;
     for (int i = 1; i < wpd_cloud_nfiles(cloud); i++)
         for (int k = 0; k < 3; k++)
@@ -347,66 +309,222 @@ static void output_lattice(wpd_cloud *cloud, const resample_options *o, double r
         res[k] = first->las.scale[k];
 }
 
-static void print_summary(const wpd_result *r, size_t n_in, double load_s, double write_s,
-                          const resample_options *o)
+static int run_in_memory(wpd_cloud *cloud, uint64_t target, const resample_options *o,
+                         wpd_selection *sel, uint64_t **file_count, wpd_run_info *info,
+                         wpd_error *err)
 {
-    const wpd_timings *t = &r->time;
-    printf("resampled %zu -> %zu points into %s\n", n_in, r->count, o->output);
-    printf("  radius %.6g (estimate %.6g, first pass %zu points, %d passes, %zu before the "
+    loaded_cloud c;
+    wpd_result res = {0};
+    double t0 = omp_get_wtime();
+    if (load_cloud(cloud, &c, err))
+        return -1;
+    info->t_load = omp_get_wtime() - t0;
+    int rc = -1;
+    wpd_block block = {.n = c.n, .xyz = c.xyz, .gid = c.gid};
+    if (wpd_run_block(&block, target, &o->params, &res, err))
+        goto done;
+    sel->n = res.count;
+    sel->record_size = c.record_size;
+    sel->moved = o->params.smooth && target < c.n;
+    sel->precision = res.radius / 1000;
+    sel->gid = malloc((res.count ? res.count : 1) * sizeof *sel->gid);
+    sel->xyz = malloc((res.count ? res.count : 1) * 3 * sizeof *sel->xyz);
+    sel->records = malloc((res.count ? res.count : 1) * c.record_size);
+    *file_count = calloc((size_t)wpd_cloud_nfiles(cloud), sizeof **file_count);
+    if (!sel->gid || !sel->xyz || !sel->records || !*file_count) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu samples", res.count);
+        goto done;
+    }
+    for (size_t i = 0; i < res.count; i++) {
+        sel->gid[i] = res.gid[i];
+        for (int k = 0; k < 3; k++)
+            sel->xyz[3 * i + k] = res.xyz[3 * i + k] + c.origin[k];
+        memcpy(sel->records + i * c.record_size, c.records + (size_t)res.index[i] * c.record_size,
+               c.record_size);
+    }
+    /* Finite points per file, for --per-input: the cloud counted them. */
+    for (int f = 0; f < wpd_cloud_nfiles(cloud); f++)
+        (*file_count)[f] = wpd_cloud_delivered(cloud, f);
+    info->input_points = c.n;
+    info->count = res.count;
+    info->radius = res.radius;
+    info->radius_estimate = res.radius_estimate;
+    info->first_pass_count = res.first_pass_count;
+    info->poisson_count = res.poisson_count;
+    info->passes = res.passes;
+    info->open_cells = res.open_cells;
+    info->pulled = res.pulled_to_surface;
+    info->t_radius = res.time.radius;
+    info->t_poisson = res.time.poisson;
+    info->t_exact = res.time.exact;
+    info->t_smooth = res.time.normals + res.time.smooth;
+    rc = 0;
+done:
+    wpd_result_free(&res);
+    loaded_free(&c);
+    return rc;
+}
+
+static const char *spill_base(const resample_options *o)
+{
+    if (o->tmpdir)
+        return o->tmpdir;
+    const char *env = getenv("TMPDIR");
+    if (env && *env)
+        return env;
+    return NULL; /* the output's directory */
+}
+
+static int run_engine(wpd_cloud *cloud, uint64_t target, const resample_options *o,
+                      wpd_selection *sel, uint64_t **file_count, double **tile_box,
+                      wpd_run_info *info, wpd_error *err)
+{
+    char outdir[1024];
+    const char *base = spill_base(o);
+    if (!base) {
+        snprintf(outdir, sizeof outdir, "%s", o->output ? o->output : o->per_input);
+        base = o->output ? dirname(outdir) : outdir;
+    }
+    if (o->params.sharp)
+        return wpd_fail(err, WPD_E_USAGE, "--sharp needs the cloud in memory (it is not "
+                        "implemented out of core yet): raise --mem above %zu MiB",
+                        in_memory_bytes(wpd_cloud_count(cloud),
+                                        wpd_cloud_header(cloud, 0)->schema.record_size) >> 20);
+    wpd_engine_options eo = {target, o->mem_bytes, base, o->min_tiles, o->params};
+    wpd_engine_result r;
+    if (wpd_engine_run(cloud, &eo, &r, err))
+        return -1;
+    sel->n = r.count;
+    sel->gid = r.gid;
+    sel->xyz = r.xyz;
+    sel->records = r.records;
+    sel->record_size = r.record_size;
+    sel->moved = o->params.smooth && target < r.input_points;
+    sel->precision = r.radius / 1000;
+    *file_count = r.file_count;
+    r.gid = NULL, r.xyz = NULL, r.records = NULL, r.file_count = NULL;
+    info->input_points = r.input_points;
+    info->count = r.count;
+    info->radius = r.radius;
+    info->radius_estimate = r.radius_estimate;
+    info->first_pass_count = r.first_pass_count;
+    info->poisson_count = r.poisson_count;
+    info->passes = r.full_passes;
+    info->prune_passes = r.prune_passes;
+    info->open_cells = r.open_cells;
+    info->pulled = r.pulled_to_surface;
+    info->tiles = r.tiles;
+    info->colours = r.colours;
+    info->largest_tile = r.largest_tile;
+    info->tile_box = *tile_box = r.tile_box;
+    r.tile_box = NULL;
+    info->spill = r.spill;
+    info->t_load = r.time.bounds;
+    info->t_scan = r.time.scan;
+    info->t_tile = r.time.tile;
+    info->t_poisson = r.time.poisson;
+    info->t_exact = r.time.exact;
+    info->t_smooth = r.time.smooth + r.time.merge;
+    wpd_engine_result_free(&r);
+    return 0;
+}
+
+/* Peak resident memory of this process so far, in KiB. */
+static long peak_rss_kb(void)
+{
+    struct rusage ru;
+    return getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_maxrss : 0;
+}
+
+static void print_summary(const wpd_run_info *r, const resample_options *o)
+{
+    printf("resampled %llu -> %zu points into %s\n", (unsigned long long)r->input_points,
+           r->count, o->output ? o->output : o->per_input);
+    printf("  radius %.6g (estimate %.6g, first pass %zu points, %d passes%s, %zu before the "
            "exact count)\n", r->radius, r->radius_estimate, r->first_pass_count, r->passes,
-           r->poisson_count);
+           r->prune_passes ? " + in-memory prunes" : "", r->poisson_count);
     if (o->params.smooth)
         printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell), %zu pulled "
-               "back to the input surface\n", o->params.iterations, r->open_cells,
-               r->pulled_to_surface);
-    if (o->params.sharp)
-        printf("  sharp features: %zu input points labelled sharp\n", r->sharp_points);
-    printf("  time: load %.3f s, radius %.3f, surface %.3f, sharp %.3f, poisson %.3f, exact "
-           "%.3f, normals %.3f, smooth %.3f, write %.3f (threads %d)\n",
-           load_s, t->radius, t->surface, t->sharp, t->poisson, t->exact, t->normals,
-           t->smooth, write_s, o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
+               "back to the input surface\n", o->params.iterations, r->open_cells, r->pulled);
+    if (r->tiles)
+        printf("  tiles: %d in %d colours (largest %llu points), spill %.1f MB -> %.1f MB on "
+               "disk\n", r->tiles, r->colours, (unsigned long long)r->largest_tile,
+               r->spill.raw_bytes / 1e6, r->spill.disk_bytes / 1e6);
+    if (r->tiles)
+        printf("  time: bounds %.3f s, scan %.3f, tile %.3f, poisson %.3f, exact %.3f, smooth "
+               "%.3f, write %.3f, total %.3f (threads %d)\n", r->t_load, r->t_scan, r->t_tile,
+               r->t_poisson, r->t_exact, r->t_smooth, r->t_write, r->t_total,
+               o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
+    else
+        printf("  time: load %.3f s, radius %.3f, poisson %.3f, exact %.3f, smooth %.3f, write "
+               "%.3f, total %.3f (threads %d)\n", r->t_load, r->t_radius, r->t_poisson,
+               r->t_exact, r->t_smooth, r->t_write, r->t_total,
+               o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
+}
+
+static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
+                         const resample_options *o, wpd_error *err)
+{
+    if (o->per_input)
+        return wpd_selection_write_per_input(sel, cloud, file_count, o->per_input, &o->write,
+                                             err);
+    return wpd_selection_write(sel, 0, sel->n, wpd_cloud_header(cloud, 0), o->output,
+                               &o->write, err);
 }
 
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
-    if (output_is_input(inputs, ninputs, o->output))
+    if (o->output && wpd_path_is_one_of(o->output, inputs, ninputs))
         return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", o->output);
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err);
     if (!cloud)
         return -1;
     uint64_t target;
     int rc = -1;
-    loaded_cloud c = {0};
-    wpd_result res = {0};
+    wpd_selection sel = {0};
+    uint64_t *file_count = NULL;
+    double *tile_box = NULL;
+    wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
+                         .per_input = o->per_input, .params = &o->params};
+    double t0 = omp_get_wtime();
     if (parse_count(o->count_text, wpd_cloud_count(cloud), &target) || target == 0) {
         wpd_fail(err, WPD_E_USAGE, "-n %s: the point count must be a positive number or "
                  "percentage", o->count_text);
         goto done;
     }
-    double t0 = omp_get_wtime();
-    if (load_cloud(cloud, &c, err))
-        goto done;
-    double load_s = omp_get_wtime() - t0;
-    if (wpd_cloud_dropped(cloud) && !o->quiet)
+    if (!o->mem_bytes)
+        o->mem_bytes = default_mem();
+    output_lattice(cloud, o, o->params.resolution);
+    uint32_t rs = wpd_cloud_header(cloud, 0)->schema.record_size;
+    int one_block = o->min_tiles <= 1 &&
+                    in_memory_bytes(wpd_cloud_count(cloud), rs) <= o->mem_bytes;
+    if (target >= wpd_cloud_count(cloud) && !o->quiet)
+        fprintf(stderr, "wpd resample: notice: -n %llu >= %llu input points: copying the "
+                "input\n", (unsigned long long)target,
+                (unsigned long long)wpd_cloud_count(cloud));
+    info.target = target;
+    info.mem_bytes = o->mem_bytes;
+    info.threads = o->params.threads > 0 ? o->params.threads : omp_get_max_threads();
+    rc = one_block ? run_in_memory(cloud, target, o, &sel, &file_count, &info, err)
+                   : run_engine(cloud, target, o, &sel, &file_count, &tile_box, &info, err);
+    info.dropped = wpd_cloud_dropped(cloud);
+    if (rc == 0 && wpd_cloud_dropped(cloud) && !o->quiet)
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
                 "dropped\n", (unsigned long long)wpd_cloud_dropped(cloud));
-    if (target >= c.n && !o->quiet)
-        fprintf(stderr, "wpd resample: notice: -n %llu >= %zu input points: copying the "
-                "input\n", (unsigned long long)target, c.n);
-    output_lattice(cloud, o, o->params.resolution);
-    wpd_block block = {.n = c.n, .xyz = c.xyz, .gid = c.gid};
-    if (wpd_run_block(&block, target, &o->params, &res, err))
-        goto done;
-    t0 = omp_get_wtime();
-    const double *moved = o->params.smooth && target < c.n ? res.xyz : NULL;
-    /* Smoothing moves points by fractions of r: keep them to r / 1000. */
-    rc = write_selection(&c, wpd_cloud_header(cloud, 0), res.index, moved, res.count,
-                         res.radius / 1000, o, err);
+    double tw = omp_get_wtime();
+    if (rc == 0)
+        rc = write_outputs(&sel, cloud, file_count, o, err);
+    info.t_write = omp_get_wtime() - tw;
+    info.t_total = omp_get_wtime() - t0;
+    info.peak_rss_kb = peak_rss_kb();
     if (rc == 0 && !o->quiet)
-        print_summary(&res, c.n, load_s, omp_get_wtime() - t0, o);
+        print_summary(&info, o);
+    if (rc == 0 && o->report)
+        rc = wpd_report_write(o->report, &info, err);
 done:
-    wpd_result_free(&res);
-    loaded_free(&c);
+    wpd_selection_free(&sel);
+    free(file_count);
+    free(tile_box);
     wpd_cloud_close(cloud);
     return rc;
 }

@@ -111,3 +111,14 @@ void wpd_outfile_abort(wpd_outfile *f)
         unlink(f->temp_path);
     f->temp_path[0] = '\0';
 }
+
+int wpd_path_is_one_of(const char *path, char *const *paths, int n)
+{
+    struct stat so, si;
+    if (stat(path, &so) != 0)
+        return 0;
+    for (int i = 0; i < n; i++)
+        if (stat(paths[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+            return 1;
+    return 0;
+}

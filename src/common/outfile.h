@@ -23,6 +23,10 @@ int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *er
 int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long off,
                        wpd_error *err);
 
+/* 1 if path names an existing file that is also one of paths[0..n-1] (same
+ * device and inode): writing it would destroy an input. */
+int wpd_path_is_one_of(const char *path, char *const *paths, int n);
+
 /* Flushes to disk, closes and renames over the final path. On failure the
  * temporary file is removed. Returns 0 or -1. */
 int wpd_outfile_commit(wpd_outfile *f, wpd_error *err);

@@ -12,6 +12,7 @@ struct wpd_cloud {
     int current;              /* file being read, nfiles when done */
     wpd_reader *reader;       /* open reader of file `current`, or NULL */
     uint64_t dropped_closed;  /* dropped points of files already finished */
+    uint64_t *delivered;      /* [nfiles] points returned per file since rewind */
 };
 
 /* Two dimensions agree if everything but a coordinate's scale/offset does. */
@@ -46,7 +47,10 @@ static int check_same_layout(const wpd_header *first, const wpd_header *h, wpd_e
 wpd_cloud *wpd_cloud_open(const char *const *paths, int n, wpd_error *err)
 {
     wpd_cloud *c = calloc(1, sizeof *c);
-    if (!c || !(c->headers = calloc((size_t)(n > 0 ? n : 1), sizeof *c->headers))) {
+    if (!c || !(c->headers = calloc((size_t)(n > 0 ? n : 1), sizeof *c->headers)) ||
+        !(c->delivered = calloc((size_t)(n > 0 ? n : 1), sizeof *c->delivered))) {
+        if (c)
+            free(c->headers);
         free(c);
         wpd_fail(err, WPD_E_MEMORY, "out of memory opening %d inputs", n);
         return NULL;
@@ -101,6 +105,8 @@ long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err)
         if (got != 0) {
             if (file)
                 *file = c->current;
+            if (got > 0)
+                c->delivered[c->current] += (uint64_t)got;
             return got;
         }
         close_current(c);
@@ -116,8 +122,11 @@ int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err)
     close_current(c);
     c->current = 0;
     c->dropped_closed = 0;
+    memset(c->delivered, 0, (size_t)c->nfiles * sizeof *c->delivered);
     return 0;
 }
+
+uint64_t wpd_cloud_delivered(const wpd_cloud *c, int i) { return c->delivered[i]; }
 
 uint64_t wpd_cloud_dropped(const wpd_cloud *c)
 {
@@ -177,5 +186,6 @@ void wpd_cloud_close(wpd_cloud *c)
     for (int i = 0; i < c->nfiles; i++)
         wpd_header_free(&c->headers[i]);
     free(c->headers);
+    free(c->delivered);
     free(c);
 }

@@ -36,6 +36,9 @@ uint64_t wpd_cloud_count(const wpd_cloud *c);
 long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err);
 /* Restarts reading at the first point of the first file. */
 int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err);
+/* Points of file i delivered since the last rewind (finite points only). */
+uint64_t wpd_cloud_delivered(const wpd_cloud *c, int i);
+
 /* Non-finite points dropped so far over all files. */
 uint64_t wpd_cloud_dropped(const wpd_cloud *c);
 

@@ -361,6 +361,16 @@ int wpd_layout_widen_coordinates(const wpd_header *in, wpd_header *out, wpd_layo
 
 /* ------------------------------------------------------------------ entry points */
 
+wpd_format wpd_format_from_name(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    if (dot && !strcasecmp(dot, ".las"))
+        return WPD_FMT_LAS;
+    if (dot && !strcasecmp(dot, ".ply"))
+        return WPD_FMT_PLY;
+    return WPD_FMT_NONE;
+}
+
 int wpd_layout_plan(const wpd_header *in, const wpd_bounds *bounds, wpd_format fmt,
                     wpd_header *out, wpd_layout_map *map, wpd_error *err)
 {

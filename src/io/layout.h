@@ -31,6 +31,10 @@ typedef struct wpd_layout_map {
     wpd_field_map fields[WPD_MAX_DIMS];
 } wpd_layout_map;
 
+/* Output format from a file name's extension (.las, .ply, any case);
+ * WPD_FMT_NONE for anything else. */
+wpd_format wpd_format_from_name(const char *path);
+
 /* Fills out (a complete header for wpd_writer_open, owning its memory) and
  * map for writing the points of `in` as format fmt. bounds are those of the
  * finite points to be written (used to choose LAS scale and offset).

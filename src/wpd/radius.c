@@ -7,55 +7,7 @@
 #include <string.h>
 
 #include "core/grid.h"
-#include "core/hash.h"
-
-#define KEY_EMPTY UINT64_MAX
-
-/* An open-addressing set of packed voxel keys. */
-typedef struct voxel_set {
-    uint64_t *slot;
-    size_t cap, count;
-} voxel_set;
-
-static int set_init(voxel_set *s, size_t cap)
-{
-    s->cap = cap;
-    s->count = 0;
-    s->slot = malloc(cap * sizeof *s->slot);
-    if (!s->slot)
-        return -1;
-    memset(s->slot, 0xff, cap * sizeof *s->slot);
-    return 0;
-}
-
-static void set_put_raw(voxel_set *s, uint64_t key)
-{
-    size_t mask = s->cap - 1;
-    size_t h = wpd_mix64(key) & mask;
-    while (s->slot[h] != KEY_EMPTY) {
-        if (s->slot[h] == key)
-            return;
-        h = (h + 1) & mask;
-    }
-    s->slot[h] = key;
-    s->count++;
-}
-
-static int set_put(voxel_set *s, uint64_t key)
-{
-    if (2 * (s->count + 1) > s->cap) {
-        voxel_set bigger;
-        if (set_init(&bigger, 2 * s->cap) < 0)
-            return -1;
-        for (size_t i = 0; i < s->cap; i++)
-            if (s->slot[i] != KEY_EMPTY)
-                set_put_raw(&bigger, s->slot[i]);
-        free(s->slot);
-        *s = bigger;
-    }
-    set_put_raw(s, key);
-    return 0;
-}
+#include "core/voxel_set.h"
 
 static int64_t floor_index(double v)
 {
@@ -77,9 +29,9 @@ static int bits_for(int64_t count)
 
 /* Adds the voxels of points [begin, end) to set. */
 static int count_chunk(const double *xyz, size_t begin, size_t end, const int64_t base[3],
-                       double inv, const int shift[2], voxel_set *set)
+                       double inv, const int shift[2], wpd_voxel_set *set)
 {
-    uint64_t last = KEY_EMPTY;
+    uint64_t last = WPD_VOXEL_KEY_EMPTY;
     for (size_t i = begin; i < end; i++) {
         const double *p = xyz + 3 * i;
         /* Points lie above the base corner, so truncation is floor (up to
@@ -92,7 +44,7 @@ static int count_chunk(const double *xyz, size_t begin, size_t end, const int64_
         if (key == last) /* scans are coherent: points often repeat a voxel */
             continue;
         last = key;
-        if (set_put(set, key) < 0)
+        if (wpd_voxel_set_put(set, key) < 0)
             return -1;
     }
     return 0;
@@ -120,7 +72,7 @@ static int count_scale(const double *xyz, size_t n, const double lo[3], const do
     int parts = threads < 1 ? 1 : threads > MAX_PARTS ? MAX_PARTS : threads;
     if (n < 100000)
         parts = 1;
-    voxel_set sets[MAX_PARTS];
+    wpd_voxel_set sets[MAX_PARTS];
     memset(sets, 0, sizeof sets);
     int failed = 0;
 #pragma omp parallel for num_threads(parts) schedule(static, 1) reduction(| : failed)
@@ -128,7 +80,7 @@ static int count_scale(const double *xyz, size_t n, const double lo[3], const do
         size_t cap = 1 << 12;
         while (cap < 2 * expect && cap < ((size_t)1 << 40))
             cap <<= 1;
-        if (set_init(&sets[t], cap) < 0) {
+        if (wpd_voxel_set_init(&sets[t], cap) < 0) {
             failed = 1;
             continue;
         }
@@ -137,8 +89,8 @@ static int count_scale(const double *xyz, size_t n, const double lo[3], const do
     }
     for (int t = 1; t < parts && !failed; t++)
         for (size_t i = 0; i < sets[t].cap && !failed; i++)
-            if (sets[t].slot[i] != KEY_EMPTY)
-                failed = set_put(&sets[0], sets[t].slot[i]) < 0;
+            if (sets[t].slot[i] != WPD_VOXEL_KEY_EMPTY)
+                failed = wpd_voxel_set_put(&sets[0], sets[t].slot[i]) < 0;
     *m = failed ? 0 : sets[0].count;
     for (int t = 0; t < parts; t++)
         free(sets[t].slot);

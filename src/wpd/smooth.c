@@ -264,13 +264,31 @@ static void round_to_output(const double res[3], const double p[3], double out[3
         out[a] = res[a] > 0 ? nearbyint(p[a] / res[a]) * res[a] : p[a];
 }
 
-static size_t clamp_to_surface(const wpd_grid *surface, double *pos, size_t n,
-                               const double res[3], int threads)
+/* A sample on no scanned surface at the sampling's scale - an isolated
+ * return, a noise spike, a lone wire point - has input neighbours sparser
+ * than half the sample spacing around its starting position. Its tangent
+ * plane means nothing and its Voronoi cell is as large as the gap around
+ * it, so smoothing would throw it across that gap (tens of feet on the NC
+ * Raleigh scan's spikes) and open a hole where it was: it keeps its
+ * starting position. */
+static int off_surface(const wpd_grid *surface, const double start[3], double spacing)
+{
+    uint32_t near;
+    double local = 0;
+    return nearest_with_spacing(surface, start, &near, &local) >= 0 && local > 0.5 * spacing;
+}
+
+static size_t clamp_to_surface(const wpd_grid *surface, double *pos, const double *start,
+                               size_t n, double spacing, const double res[3], int threads)
 {
     size_t pulled = 0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : pulled)
     for (size_t o = 0; o < n; o++) {
         double *p = pos + 3 * o;
+        if (off_surface(surface, start + 3 * o, spacing)) {
+            memcpy(p, start + 3 * o, 3 * sizeof *p);
+            continue;
+        }
         /* The position is judged as the output will store it. Pulling p
          * changes its nearest input point, whose spacing may be smaller: a
          * few rounds, then onto the input point itself (exact in any output:
@@ -307,6 +325,7 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     int k = in->k < 3 ? 3 : in->k > WPD_KNN_MAX ? WPD_KNN_MAX : in->k;
     frames f = {0};
     double *next = malloc(3 * n * sizeof *next);
+    double *start = NULL;     /* positions before smoothing */
     int rc = -1;
     if (!next || alloc_frames(&f, n, k) < 0) {
         wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
@@ -319,6 +338,12 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
 
     double total_move = 0;
     double *prev = f.pos;
+    start = malloc(3 * n * sizeof *start);
+    if (!start) {
+        wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
+        goto done;
+    }
+    memcpy(start, f.pos, 3 * n * sizeof *start);
     for (int it = 0; it < in->iterations; it++) {
         size_t open = 0;
         /* Jacobi: every sample reads prev only, so threads cannot matter. */
@@ -341,8 +366,8 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
         stats->open_cells = open;
     }
     if (in->surface)
-        stats->pulled_to_surface =
-            clamp_to_surface(in->surface, prev, n, in->resolution, threads);
+        stats->pulled_to_surface = clamp_to_surface(in->surface, prev, start, n, in->spacing,
+                                                    in->resolution, threads);
     for (size_t o = 0; o < n; o++)
         memcpy(in->xyz + 3 * (size_t)f.perm[o], prev + 3 * o, 3 * sizeof *in->xyz);
     /* prev and next are f.pos and the scratch, in some order: free both. */
@@ -354,6 +379,7 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     rc = 0;
 done:
     free(next);
+    free(start);
     free_frames(&f);
     return rc;
 }

@@ -7,5 +7,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import harness  # noqa: E402
 import test_io  # noqa: E402
 import test_resample  # noqa: E402
+import test_engine  # noqa: E402
 
-sys.exit(harness.run([test_io, test_resample]))
+sys.exit(harness.run([test_io, test_resample, test_engine]))

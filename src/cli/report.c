@@ -1,0 +1,123 @@
+#include "cli/report.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "common/json.h"
+#include "common/outfile.h"
+
+static void field_num(FILE *f, const char *key, double v, int comma)
+{
+    fprintf(f, "  \"%s\": ", key);
+    wpd_json_number(f, v);
+    fputs(comma ? ",\n" : "\n", f);
+}
+
+static void field_str(FILE *f, const char *key, const char *v)
+{
+    fprintf(f, "  \"%s\": ", key);
+    if (v)
+        wpd_json_string(f, v);
+    else
+        fputs("null", f);
+    fputs(",\n", f);
+}
+
+static void write_inputs(FILE *f, const wpd_run_info *r)
+{
+    fputs("  \"inputs\": [", f);
+    for (int i = 0; i < r->ninputs; i++) {
+        if (i)
+            fputs(", ", f);
+        wpd_json_string(f, r->inputs[i]);
+    }
+    fputs("],\n", f);
+}
+
+static void write_options(FILE *f, const wpd_run_info *r)
+{
+    const wpd_params *p = r->params;
+    fprintf(f, "  \"options\": {\"n\": %llu, \"lambda\": %.17g, \"voxel_frac\": %.17g, "
+               "\"radius_estimate\": \"%s\", \"k\": %d, \"iterations\": %d, \"smooth\": %s, "
+               "\"smooth_mode\": %d, \"keep_on_surface\": %s, \"sharp\": %s, \"seed\": %llu, "
+               "\"mem_bytes\": %zu},\n",
+            (unsigned long long)r->target, p->lambda, p->voxel_frac,
+            p->radius_method == WPD_RADIUS_PAPER ? "paper" : "multiscale", p->k, p->iterations,
+            p->smooth ? "true" : "false", p->smooth_mode, p->keep_on_surface ? "true" : "false",
+            p->sharp ? "true" : "false", (unsigned long long)p->seed, r->mem_bytes);
+}
+
+static void write_phases(FILE *f, const wpd_run_info *r)
+{
+    fputs("  \"seconds\": {", f);
+    const char *names[] = {"load", "scan", "tile", "radius", "poisson", "exact", "smooth",
+                           "write", "total"};
+    const double v[] = {r->t_load, r->t_scan, r->t_tile, r->t_radius, r->t_poisson,
+                        r->t_exact, r->t_smooth, r->t_write, r->t_total};
+    for (int i = 0; i < 9; i++) {
+        fprintf(f, "%s\"%s\": ", i ? ", " : "", names[i]);
+        wpd_json_number(f, v[i]);
+    }
+    fputs("},\n", f);
+}
+
+static void write_tiles(FILE *f, const wpd_run_info *r)
+{
+    double ratio = r->spill.disk_bytes ? (double)r->spill.raw_bytes / r->spill.disk_bytes : 0;
+    fprintf(f, "  \"spill\": {\"points\": %llu, \"raw_bytes\": %llu, \"disk_bytes\": %llu, "
+               "\"ratio\": ", (unsigned long long)r->spill.points,
+            (unsigned long long)r->spill.raw_bytes, (unsigned long long)r->spill.disk_bytes);
+    wpd_json_number(f, ratio);
+    fprintf(f, "},\n  \"tiles\": {\"count\": %d, \"colours\": %d, \"largest_points\": %llu, "
+               "\"boxes\": [", r->tiles, r->colours, (unsigned long long)r->largest_tile);
+    for (int t = 0; t < r->tiles; t++) {
+        fputs(t ? ", {\"min\": [" : "{\"min\": [", f);
+        for (int k = 0; k < 6; k++) {
+            wpd_json_number(f, r->tile_box[6 * t + k]);
+            fputs(k == 2 ? "], \"max\": [" : k == 5 ? "]}" : ", ", f);
+        }
+    }
+    fputs("]},\n", f);
+}
+
+static void write_body(FILE *f, const wpd_run_info *r)
+{
+    fputs("{\n", f);
+    write_inputs(f, r);
+    field_str(f, "output", r->output);
+    field_str(f, "per_input", r->per_input);
+    fprintf(f, "  \"threads\": %d,\n", r->threads);
+    write_options(f, r);
+    fprintf(f, "  \"input_points\": %llu,\n  \"dropped_non_finite\": %llu,\n"
+               "  \"output_points\": %zu,\n", (unsigned long long)r->input_points,
+            (unsigned long long)r->dropped, r->count);
+    field_num(f, "radius_estimate", r->radius_estimate, 1);
+    field_num(f, "radius", r->radius, 1);
+    fprintf(f, "  \"first_pass_points\": %zu,\n  \"poisson_points\": %zu,\n"
+               "  \"poisson_passes\": %d,\n  \"prune_passes\": %d,\n"
+               "  \"open_cells\": %zu,\n  \"pulled_to_surface\": %zu,\n",
+            r->first_pass_count, r->poisson_count, r->passes, r->prune_passes, r->open_cells,
+            r->pulled);
+    write_phases(f, r);
+    write_tiles(f, r);
+    fprintf(f, "  \"peak_rss_bytes\": %lld\n}\n", (long long)r->peak_rss_kb * 1024);
+}
+
+int wpd_report_write(const char *path, const wpd_run_info *info, wpd_error *err)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *mem = open_memstream(&text, &len);
+    if (!mem)
+        return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for the report", path);
+    write_body(mem, info);
+    fclose(mem);
+    wpd_outfile out;
+    int rc = wpd_outfile_open(&out, path, 1, err);
+    if (rc == 0 && (rc = wpd_outfile_write(&out, text, len, err)) == 0)
+        rc = wpd_outfile_commit(&out, err);
+    else if (out.fd >= 0 || out.temp_path[0])
+        wpd_outfile_abort(&out);
+    free(text);
+    return rc;
+}

@@ -1,0 +1,116 @@
+#include "cli/selection.h"
+
+#include <libgen.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "io/layout.h"
+
+/* 1 when a PLY output's x, y or z is float32 and float32 spacing at the
+ * output's magnitude is coarser than precision: moved positions would be
+ * rounded away (float32 UTM northings are spaced half a metre apart). */
+static int needs_wider_coordinates(const wpd_header *out, const wpd_bounds *b, double precision)
+{
+    if (out->format != WPD_FMT_PLY)
+        return 0;
+    const wpd_schema *s = &out->schema;
+    int axes[3] = {s->dim_x, s->dim_y, s->dim_z};
+    for (int k = 0; k < 3; k++) {
+        if (axes[k] < 0 || s->dims[axes[k]].type != WPD_F32)
+            continue;
+        double mag = fmax(fabs(b->min[k]), fabs(b->max[k]));
+        if (mag > 0 && ldexp(1.0, ilogb(mag) - 23) > precision)
+            return 1;
+    }
+    return 0;
+}
+
+static int plan_output(const wpd_selection *sel, size_t first, size_t count,
+                       const wpd_header *in, const char *path, wpd_header *out,
+                       wpd_layout_map *map, wpd_error *err)
+{
+    wpd_bounds bounds;
+    wpd_bounds_reset(&bounds);
+    wpd_bounds_add(&bounds, sel->xyz + 3 * first, count);
+    wpd_format fmt = wpd_format_from_name(path);
+    if (fmt == WPD_FMT_NONE)
+        return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las or .ply", path);
+    if (wpd_layout_plan(in, &bounds, fmt, out, map, err))
+        return -1;
+    if (sel->moved && needs_wider_coordinates(out, &bounds, sel->precision) &&
+        wpd_layout_widen_coordinates(in, out, map, err)) {
+        wpd_header_free(out);
+        return -1;
+    }
+    return 0;
+}
+
+int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
+                        const wpd_header *in, const char *path, const wpd_write_options *opt,
+                        wpd_error *err)
+{
+    wpd_header out;
+    wpd_layout_map map;
+    if (plan_output(sel, first, count, in, path, &out, &map, err))
+        return -1;
+    wpd_batch src, dst;
+    int rc = -1;
+    wpd_writer *w = NULL;
+    memset(&src, 0, sizeof src);
+    if (wpd_batch_init(&src, 65536, sel->record_size) ||
+        wpd_batch_init(&dst, 65536, out.schema.record_size)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+        goto done;
+    }
+    if (!(w = wpd_writer_open(path, &out, opt, err)))
+        goto done;
+    for (size_t start = first; start < first + count; start += src.cap) {
+        src.n = first + count - start < src.cap ? first + count - start : src.cap;
+        memcpy(src.records, sel->records + start * sel->record_size, src.n * sel->record_size);
+        memcpy(src.xyz, sel->xyz + 3 * start, 3 * src.n * sizeof *src.xyz);
+        wpd_layout_apply(&map, &in->schema, &out.schema, &src, &dst);
+        if (wpd_writer_write(w, &dst, err))
+            goto done;
+    }
+    rc = wpd_writer_close(w, err);
+    w = NULL;
+done:
+    wpd_writer_abort(w);
+    wpd_batch_free(&src);
+    wpd_batch_free(&dst);
+    wpd_header_free(&out);
+    return rc;
+}
+
+int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
+                                  const uint64_t *file_count, const char *outdir,
+                                  const wpd_write_options *opt, wpd_error *err)
+{
+    uint64_t file_start = 0;
+    size_t first = 0;
+    for (int f = 0; f < wpd_cloud_nfiles(cloud); f++) {
+        const wpd_header *in = wpd_cloud_header(cloud, f);
+        uint64_t file_end = file_start + file_count[f];
+        size_t count = 0;
+        while (first + count < sel->n && sel->gid[first + count] < file_end)
+            count++;
+        char base[1024], path[2048];
+        snprintf(base, sizeof base, "%s", in->path);
+        snprintf(path, sizeof path, "%s/%s", outdir, basename(base));
+        if (wpd_selection_write(sel, first, count, in, path, opt, err))
+            return -1;
+        first += count;
+        file_start = file_end;
+    }
+    return 0;
+}
+
+void wpd_selection_free(wpd_selection *sel)
+{
+    free(sel->gid);
+    free(sel->xyz);
+    free(sel->records);
+    memset(sel, 0, sizeof *sel);
+}

@@ -1,0 +1,42 @@
+/* selection.h - the resampled points on their way to the output: records
+ * of the selected input points with their new coordinates, in global index
+ * order, written to one file or split into one file per input. */
+#ifndef WPD_SELECTION_H
+#define WPD_SELECTION_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+#include "io/cloud.h"
+#include "io/writer.h"
+
+typedef struct wpd_selection {
+    size_t n;
+    uint64_t *gid;            /* [n] ascending global indices (finite points, in
+                                 input order over all files) */
+    double *xyz;              /* [3n] absolute coordinates */
+    uint8_t *records;         /* [n * record_size] input records */
+    uint32_t record_size;
+    int moved;                /* 1: coordinates changed (smoothing) */
+    double precision;         /* resolution the moved coordinates need */
+} wpd_selection;
+
+/* Writes sel to path (format from its extension), in the layout that
+ * wpd_layout_plan gives for the input header in. Returns 0 or -1. */
+int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
+                        const wpd_header *in, const char *path, const wpd_write_options *opt,
+                        wpd_error *err);
+
+/* Writes one output per input file into outdir (same file name, same
+ * format as the input): the points of sel whose global index falls in that
+ * file (file_count[i] finite points each, in order). Files that receive no
+ * point are still written (empty). Returns 0 or -1; on failure the outputs
+ * already written stay (each complete). */
+int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
+                                  const uint64_t *file_count, const char *outdir,
+                                  const wpd_write_options *opt, wpd_error *err);
+
+void wpd_selection_free(wpd_selection *sel);
+
+#endif

@@ -1,0 +1,836 @@
+/* engine.c - the out-of-core pipeline of engine.h. */
+#include "ooc/engine.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/grid.h"
+#include "core/knn.h"
+#include "core/sort.h"
+#include "ooc/plan.h"
+#include "ooc/scan.h"
+#include "wpd/exact.h"
+#include "wpd/poisson.h"
+#include "wpd/radius.h"
+#include "wpd/refine.h"
+#include "wpd/smooth.h"
+
+/* ------------------------------------------------------------------ budget */
+
+enum {
+    VOXEL_CAP = 1 << 21,                  /* voxel keys held by the scan */
+    FIXED_BYTES = 96 << 20,               /* scan sets, batches, plan, runtime */
+    SPILL_BUFFERS_MAX = 64 << 20,         /* all tiles' write buffers together */
+    MIN_TILE_POINTS = 20000,
+};
+
+size_t wpd_engine_bytes_per_tile_point(uint32_t record_size)
+{
+    /* coordinates, index and halo flag 33, Poisson scratch (priority,
+     * order, grid copy) ~80, surface grid ~45, the record */
+    return 160 + record_size;
+}
+
+size_t wpd_engine_bytes_per_sample(uint32_t record_size)
+{
+    /* store 36, exact-count scratch ~70, result (index, xyz, record) */
+    return 140 + record_size;
+}
+
+/* The first pass may overshoot n: budget samples for 1.3 n. */
+static size_t samples_bytes(uint64_t target, uint32_t record_size)
+{
+    return (size_t)(1.3 * (double)target) * wpd_engine_bytes_per_sample(record_size);
+}
+
+size_t wpd_engine_min_budget(uint64_t target, uint32_t record_size, int threads)
+{
+    return FIXED_BYTES + SPILL_BUFFERS_MAX / 4 + samples_bytes(target, record_size) +
+           (size_t)threads * MIN_TILE_POINTS * wpd_engine_bytes_per_tile_point(record_size);
+}
+
+/* ------------------------------------------------------------------ state */
+
+typedef struct tile_samples {
+    size_t n;
+    uint64_t *gid;            /* ascending */
+    double *xyz;              /* frame coordinates */
+    uint8_t *records;         /* filled by the last pass */
+} tile_samples;
+
+typedef struct engine {
+    const wpd_engine_options *opt;
+    wpd_cloud *cloud;
+    uint32_t record_size;
+    int threads;
+    wpd_scan scan;
+    wpd_plan plan;
+    wpd_spill *spill;
+    tile_samples *store;      /* [ntiles] */
+    wpd_engine_result *res;
+} engine;
+
+static void store_clear(engine *e)
+{
+    for (int t = 0; e->store && t < e->plan.ntiles; t++) {
+        free(e->store[t].gid);
+        free(e->store[t].xyz);
+        free(e->store[t].records);
+        memset(&e->store[t], 0, sizeof e->store[t]);
+    }
+}
+
+static size_t store_count(const engine *e)
+{
+    size_t total = 0;
+    for (int t = 0; t < e->plan.ntiles; t++)
+        total += e->store[t].n;
+    return total;
+}
+
+/* ------------------------------------------------------------------ tiling */
+
+/* Smallest distance from p to a face of t's box, from inside. */
+static double inside_margin(const wpd_tile *t, const double p[3])
+{
+    double m = INFINITY;
+    for (int a = 0; a < 3; a++)
+        m = fmin(m, fmin(p[a] - t->box_lo[a], t->box_hi[a] - p[a]));
+    return m;
+}
+
+/* One batch's points grouped by destination tile. */
+typedef struct routing {
+    size_t cap, n;
+    uint32_t *tile, *point;   /* [n] entries: destination, point in batch */
+    uint8_t *halo;
+    uint32_t *order;          /* entries sorted by tile (counting sort) */
+    size_t *start;            /* [ntiles + 1] */
+    uint64_t *gid;            /* gathered columns of one tile group */
+    double *xyz;
+    uint8_t *hflag, *records;
+} routing;
+
+static void routing_free(routing *r)
+{
+    free(r->tile); free(r->point); free(r->halo); free(r->order); free(r->start);
+    free(r->gid); free(r->xyz); free(r->hflag); free(r->records);
+    memset(r, 0, sizeof *r);
+}
+
+static int routing_reserve(routing *r, size_t cap, size_t batch, int ntiles, uint32_t rs)
+{
+    if (cap <= r->cap)
+        return 0;
+    routing old = *r;
+    r->cap = cap;
+    r->tile = realloc(old.tile, cap * sizeof *r->tile);
+    r->point = realloc(old.point, cap * sizeof *r->point);
+    r->halo = realloc(old.halo, cap);
+    r->order = realloc(old.order, cap * sizeof *r->order);
+    if (!r->start)
+        r->start = malloc(((size_t)ntiles + 1) * sizeof *r->start);
+    if (!r->gid) {
+        r->gid = malloc(batch * sizeof *r->gid);
+        r->xyz = malloc(3 * batch * sizeof *r->xyz);
+        r->hflag = malloc(batch);
+        r->records = malloc(batch * rs);
+    }
+    return r->tile && r->point && r->halo && r->order && r->start && r->gid && r->xyz &&
+                   r->hflag && r->records
+               ? 0
+               : -1;
+}
+
+static int route_point(routing *r, uint32_t tile, uint32_t point, uint8_t halo)
+{
+    if (r->n == r->cap)
+        return -1;
+    r->tile[r->n] = tile;
+    r->point[r->n] = point;
+    r->halo[r->n] = halo;
+    r->n++;
+    return 0;
+}
+
+/* Destinations of every point of the batch (frame coordinates in fxyz). */
+static int route_batch(const engine *e, const double *fxyz, size_t n, routing *r)
+{
+    r->n = 0;
+    const wpd_plan *pl = &e->plan;
+    for (size_t i = 0; i < n; i++) {
+        const double *p = fxyz + 3 * i;
+        int home = pl->cell_tile[wpd_scan_cell_of(&e->scan, p)];
+        const wpd_tile *t = &pl->tiles[home];
+        if (route_point(r, (uint32_t)home, (uint32_t)i, 0))
+            return -1;
+        if (inside_margin(t, p) >= pl->halo)
+            continue;
+        for (int j = 0; j < t->nadj; j++)
+            if (wpd_tile_distance(&pl->tiles[t->adj[j]], p) < pl->halo &&
+                route_point(r, (uint32_t)t->adj[j], (uint32_t)i, 1))
+                return -1;
+    }
+    return 0;
+}
+
+/* Stable counting sort of the entries by tile. */
+static void group_by_tile(routing *r, int ntiles)
+{
+    memset(r->start, 0, ((size_t)ntiles + 1) * sizeof *r->start);
+    for (size_t i = 0; i < r->n; i++)
+        r->start[r->tile[i] + 1]++;
+    for (int t = 0; t < ntiles; t++)
+        r->start[t + 1] += r->start[t];
+    size_t *fill = malloc((size_t)ntiles * sizeof *fill);
+    memcpy(fill, r->start, (size_t)ntiles * sizeof *fill);
+    for (size_t i = 0; i < r->n; i++)
+        r->order[fill[r->tile[i]]++] = (uint32_t)i;
+    free(fill);
+}
+
+static int append_groups(engine *e, routing *r, const wpd_batch *b, const double *fxyz,
+                         uint64_t first_gid, wpd_error *err)
+{
+    uint32_t rs = e->record_size;
+    group_by_tile(r, e->plan.ntiles);
+    for (int t = 0; t < e->plan.ntiles; t++) {
+        size_t m = 0;
+        for (size_t k = r->start[t]; k < r->start[t + 1]; k++, m++) {
+            size_t entry = r->order[k], i = r->point[entry];
+            r->gid[m] = first_gid + i;
+            memcpy(r->xyz + 3 * m, fxyz + 3 * i, 3 * sizeof *r->xyz);
+            r->hflag[m] = r->halo[entry];
+            memcpy(r->records + m * rs, b->records + i * rs, rs);
+        }
+        if (m && wpd_spill_append(e->spill, t, r->gid, r->xyz, r->hflag, r->records, m, err))
+            return -1;
+    }
+    return 0;
+}
+
+static int tile_pass(engine *e, wpd_error *err)
+{
+    enum { BATCH = 65536 };
+    wpd_batch b;
+    routing r = {0};
+    double *fxyz = malloc(3 * BATCH * sizeof *fxyz);
+    int rc = -1;
+    if (!fxyz || wpd_batch_init(&b, BATCH, e->record_size)) {
+        free(fxyz);
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
+    }
+    /* Halo copies: a point lands in at most a few tiles; grow on demand. */
+    if (routing_reserve(&r, 2 * BATCH, BATCH, e->plan.ntiles, e->record_size)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
+        goto done;
+    }
+    uint64_t gid = 0;
+    long got;
+    if (wpd_cloud_rewind(e->cloud, err))
+        goto done;
+    while ((got = wpd_cloud_read(e->cloud, &b, NULL, err)) > 0) {
+        for (size_t i = 0; i < b.n; i++)
+            for (int a = 0; a < 3; a++)
+                fxyz[3 * i + a] = b.xyz[3 * i + a] - e->scan.origin[a];
+        while (route_batch(e, fxyz, b.n, &r))
+            if (routing_reserve(&r, 2 * r.cap, BATCH, e->plan.ntiles, e->record_size)) {
+                wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
+                goto done;
+            }
+        if (append_groups(e, &r, &b, fxyz, gid, err))
+            goto done;
+        gid += b.n;
+    }
+    if (got < 0 || wpd_spill_finish(e->spill, err))
+        goto done;
+    rc = 0;
+done:
+    wpd_batch_free(&b);
+    routing_free(&r);
+    free(fxyz);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ Poisson passes */
+
+/* Samples of t's neighbours (their store) within dist of t's box. */
+static int gather_neighbour_samples(const engine *e, int t, double dist, double **out,
+                                    size_t *n)
+{
+    const wpd_tile *tile = &e->plan.tiles[t];
+    size_t cap = 0;
+    for (int j = 0; j < tile->nadj; j++)
+        cap += e->store[tile->adj[j]].n;
+    *out = malloc((cap ? cap : 1) * 3 * sizeof **out);
+    *n = 0;
+    if (!*out)
+        return -1;
+    for (int j = 0; j < tile->nadj; j++) {
+        const tile_samples *s = &e->store[tile->adj[j]];
+        for (size_t i = 0; i < s->n; i++)
+            if (wpd_tile_distance(tile, s->xyz + 3 * i) < dist) {
+                memcpy(*out + 3 * *n, s->xyz + 3 * i, 3 * sizeof **out);
+                (*n)++;
+            }
+    }
+    return 0;
+}
+
+/* Keeps the points idx[0..m-1] of d as tile t's samples. */
+static int keep_samples(engine *e, int t, const wpd_tile_data *d, const uint32_t *idx, size_t m)
+{
+    tile_samples *s = &e->store[t];
+    s->n = m;
+    s->gid = malloc((m ? m : 1) * sizeof *s->gid);
+    s->xyz = malloc((m ? m : 1) * 3 * sizeof *s->xyz);
+    if (!s->gid || !s->xyz)
+        return -1;
+    for (size_t i = 0; i < m; i++) {
+        s->gid[i] = d->gid[idx[i]];
+        memcpy(s->xyz + 3 * i, d->xyz + 3 * (size_t)idx[i], 3 * sizeof *s->xyz);
+    }
+    return 0;
+}
+
+/* One tile of a full pass at radius r. */
+static int poisson_tile(engine *e, int t, double r, wpd_error *err)
+{
+    wpd_tile_data d;
+    if (wpd_spill_read(e->spill, t, 0, &d, err))
+        return -1;
+    uint32_t *cand = malloc((d.n ? d.n : 1) * sizeof *cand);
+    uint32_t *kept = malloc((d.n ? d.n : 1) * sizeof *kept);
+    double *fixed = NULL;
+    size_t ncand = 0, nfixed = 0;
+    int rc = -1;
+    if (!cand || !kept || gather_neighbour_samples(e, t, r, &fixed, &nfixed)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+        goto done;
+    }
+    /* Candidates: the tile's own points, and the halo points of neighbours
+     * not yet processed (later colours). The greedy pass over both decides
+     * the border points as the pass over the whole cloud would - a point
+     * is kept iff no kept point of smaller priority lies within r, and the
+     * halo holds the points that decide that - so the tiles reproduce the
+     * one-tile result but where a chain of such decisions runs further
+     * than the halo. Halo points of finished neighbours are settled: their
+     * samples are fixed, the rest are gone. Only own points are kept. */
+    int colour = e->plan.tiles[t].colour;
+    for (size_t i = 0; i < d.n; i++) {
+        int home = d.halo[i] ? e->plan.cell_tile[wpd_scan_cell_of(&e->scan, d.xyz + 3 * i)] : t;
+        if (home == t || e->plan.tiles[home].colour > colour)
+            cand[ncand++] = (uint32_t)i;
+    }
+    wpd_poisson_input in = {d.xyz, d.gid, NULL, cand, ncand, fixed, nfixed, r,
+                            e->opt->params.seed, 1};
+    long m = wpd_poisson_pass(&in, kept, err);
+    if (m < 0)
+        goto done;
+    size_t own = 0;
+    for (long i = 0; i < m; i++)
+        if (!d.halo[kept[i]])
+            kept[own++] = kept[i];
+    if (keep_samples(e, t, &d, kept, own)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+        goto done;
+    }
+    rc = 0;
+done:
+    free(cand);
+    free(kept);
+    free(fixed);
+    wpd_tile_data_free(&d);
+    return rc;
+}
+
+/* Runs fn on every tile, colour by colour, the tiles of a colour in
+ * parallel. Tiles of one colour are never neighbours, so each sees exactly
+ * the work of its neighbours of earlier colours, whatever the threads. */
+typedef int (*tile_fn)(engine *e, int t, double r, wpd_error *err);
+
+static int for_each_tile_by_colour(engine *e, tile_fn fn, double r, wpd_error *err)
+{
+    int failed = 0;
+    wpd_error first_err = {0};
+    for (int c = 0; c < e->plan.ncolours && !failed; c++) {
+#pragma omp parallel for num_threads(e->threads) schedule(dynamic, 1)
+        for (int t = 0; t < e->plan.ntiles; t++) {
+            if (e->plan.tiles[t].colour != c || failed)
+                continue;
+            wpd_error local = {0};
+            if (fn(e, t, r, &local)) {
+#pragma omp critical
+                if (!failed) {
+                    failed = 1;
+                    first_err = local;
+                }
+            }
+        }
+    }
+    if (failed && err)
+        *err = first_err;
+    return failed ? -1 : 0;
+}
+
+static int full_pass(engine *e, double r, size_t *count, wpd_error *err)
+{
+    store_clear(e);
+    if (for_each_tile_by_colour(e, poisson_tile, r, err))
+        return -1;
+    *count = store_count(e);
+    e->res->full_passes++;
+    return 0;
+}
+
+/* The whole sample set as flat arrays, in tile order. */
+typedef struct flat_samples {
+    size_t n;
+    uint64_t *gid;
+    double *xyz;
+    int *tile;
+} flat_samples;
+
+static void flat_free(flat_samples *f)
+{
+    free(f->gid);
+    free(f->xyz);
+    free(f->tile);
+    memset(f, 0, sizeof *f);
+}
+
+static int flatten(const engine *e, flat_samples *f)
+{
+    f->n = store_count(e);
+    f->gid = malloc((f->n ? f->n : 1) * sizeof *f->gid);
+    f->xyz = malloc((f->n ? f->n : 1) * 3 * sizeof *f->xyz);
+    f->tile = malloc((f->n ? f->n : 1) * sizeof *f->tile);
+    if (!f->gid || !f->xyz || !f->tile)
+        return -1;
+    size_t k = 0;
+    for (int t = 0; t < e->plan.ntiles; t++) {
+        const tile_samples *s = &e->store[t];
+        memcpy(f->gid + k, s->gid, s->n * sizeof *f->gid);
+        memcpy(f->xyz + 3 * k, s->xyz, 3 * s->n * sizeof *f->xyz);
+        for (size_t i = 0; i < s->n; i++)
+            f->tile[k + i] = t;
+        k += s->n;
+    }
+    return 0;
+}
+
+/* Replaces the store by the samples idx[0..m-1] (ascending) of f. */
+static int unflatten(engine *e, const flat_samples *f, const uint32_t *idx, size_t m)
+{
+    store_clear(e);
+    size_t *count = calloc((size_t)e->plan.ntiles, sizeof *count);
+    if (!count)
+        return -1;
+    for (size_t i = 0; i < m; i++)
+        count[f->tile[idx[i]]]++;
+    int rc = 0;
+    for (int t = 0; t < e->plan.ntiles; t++) {
+        tile_samples *s = &e->store[t];
+        s->gid = malloc((count[t] ? count[t] : 1) * sizeof *s->gid);
+        s->xyz = malloc((count[t] ? count[t] : 1) * 3 * sizeof *s->xyz);
+        if (!s->gid || !s->xyz)
+            rc = -1;
+    }
+    for (size_t i = 0; i < m && rc == 0; i++) {
+        tile_samples *s = &e->store[f->tile[idx[i]]];
+        s->gid[s->n] = f->gid[idx[i]];
+        memcpy(s->xyz + 3 * s->n, f->xyz + 3 * (size_t)idx[i], 3 * sizeof *s->xyz);
+        s->n++;
+    }
+    free(count);
+    return rc;
+}
+
+/* An overshooting pass is pruned in memory: a Poisson pass over its samples
+ * (same priorities) at a larger radius keeps a subset no two of which are
+ * closer than that radius, across tiles too since all samples take part.
+ * The radius is found by bisection between the pass's radius (count above
+ * 1.05 n) and a radius whose count falls below n. */
+static int prune_to_range(engine *e, double r_lo, size_t count, double *r_out, wpd_error *err)
+{
+    size_t n = e->opt->target;
+    flat_samples f = {0};
+    uint32_t *kept = NULL, *best = NULL;
+    size_t best_count = 0;
+    int rc = -1;
+    if (flatten(e, &f) || !(kept = malloc(f.n * sizeof *kept)) ||
+        !(best = malloc(f.n * sizeof *best))) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
+        goto done;
+    }
+    double r_hi = r_lo * sqrt((double)count / (double)n) * 1.25, r = r_lo;
+    *r_out = r_lo;
+    for (int it = 0; it < 30; it++) {
+        r = it == 0 ? r_lo * sqrt((double)count / (1.025 * (double)n)) : 0.5 * (r_lo + r_hi);
+        wpd_poisson_input in = {f.xyz, f.gid, NULL, NULL, f.n, NULL, 0, r,
+                                e->opt->params.seed, e->threads};
+        long m = wpd_poisson_pass(&in, kept, err);
+        if (m < 0)
+            goto done;
+        e->res->prune_passes++;
+        if ((size_t)m >= n) {
+            r_lo = r;
+            memcpy(best, kept, (size_t)m * sizeof *best);
+            best_count = (size_t)m;
+            *r_out = r;
+            if ((double)m <= (1 + WPD_COUNT_TOLERANCE) * (double)n)
+                break;
+        } else {
+            r_hi = r;
+        }
+    }
+    /* best_count == 0: nothing landed in range above n; keep the pass. */
+    rc = best_count ? unflatten(e, &f, best, best_count) : 0;
+    if (rc)
+        wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
+done:
+    flat_free(&f);
+    free(kept);
+    free(best);
+    return rc;
+}
+
+/* Full passes with the paper's refinement until the count reaches [n, 1.05 n]
+ * or overshoots, which is then pruned in memory. */
+static int refine_radius(engine *e, double r0, wpd_error *err)
+{
+    size_t n = e->opt->target, count = 0;
+    wpd_refine st;
+    wpd_refine_init(&st, n, r0, e->opt->params.max_passes);
+    for (;;) {
+        double r = st.r;
+        if (full_pass(e, r, &count, err))
+            return -1;
+        if (e->res->full_passes == 1)
+            e->res->first_pass_count = count;
+        e->res->radius = r;
+        wpd_refine_status s = wpd_refine_report(&st, count);
+        if (s == WPD_REFINE_DONE)
+            return 0;
+        if (count > n)
+            return prune_to_range(e, r, count, &e->res->radius, err);
+        if (s == WPD_REFINE_GAVE_UP)
+            return 0;
+    }
+}
+
+/* ------------------------------------------------------------------ exact count */
+
+static int exact_count(engine *e, wpd_error *err)
+{
+    flat_samples f = {0};
+    uint32_t *idx = NULL;
+    int rc = -1;
+    if (flatten(e, &f) || !(idx = malloc((f.n ? f.n : 1) * sizeof *idx))) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
+        goto done;
+    }
+    for (size_t i = 0; i < f.n; i++)
+        idx[i] = (uint32_t)i;
+    wpd_exact_input in = {f.xyz, f.gid, NULL, 0, e->res->radius, e->threads};
+    int sweeps = 0;
+    long kept = wpd_exact_count(&in, idx, f.n, e->opt->target, &sweeps, err);
+    if (kept < 0)
+        goto done;
+    if (unflatten(e, &f, idx, (size_t)kept)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
+        goto done;
+    }
+    rc = 0;
+done:
+    flat_free(&f);
+    free(idx);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ smoothing and records */
+
+/* Copies the records of t's samples out of its tile data: both are in
+ * ascending global index order. */
+static int pick_records(engine *e, int t, const wpd_tile_data *d)
+{
+    tile_samples *s = &e->store[t];
+    uint32_t rs = e->record_size;
+    s->records = malloc((s->n ? s->n : 1) * rs);
+    if (!s->records)
+        return -1;
+    size_t j = 0;
+    for (size_t i = 0; i < s->n; i++) {
+        while (j < d->n && (d->gid[j] < s->gid[i] || d->halo[j]))
+            j++;
+        if (j == d->n)
+            return -1;
+        memcpy(s->records + i * rs, d->records + j * rs, rs);
+    }
+    return 0;
+}
+
+static int smooth_samples(engine *e, int t, const wpd_tile_data *d, wpd_error *err)
+{
+    const wpd_params *p = &e->opt->params;
+    tile_samples *s = &e->store[t];
+    double r = e->res->radius;
+    wpd_grid surface = {0};
+    double *ctx = NULL;
+    size_t nctx = 0;
+    int rc = -1;
+    double input_dk = 2.5 * r * sqrt((double)e->opt->target / (double)e->res->input_points);
+    if (p->keep_on_surface &&
+        wpd_grid_build_knn(&surface, d->xyz, NULL, d->n, p->k, input_dk, 1, err))
+        goto done;
+    /* Context: neighbours' samples within 3 r, at their current positions. */
+    if (gather_neighbour_samples(e, t, 3 * r, &ctx, &nctx)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+        goto done;
+    }
+    wpd_smooth_input in = {s->xyz, s->n, NULL, ctx, nctx,
+                           p->keep_on_surface ? &surface : NULL, input_dk,
+                           (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations, r, 1,
+                           {p->resolution[0], p->resolution[1], p->resolution[2]}};
+    wpd_smooth_stats st;
+    if (wpd_smooth(&in, &st, err))
+        goto done;
+#pragma omp atomic
+    e->res->open_cells += st.open_cells;
+#pragma omp atomic
+    e->res->pulled_to_surface += st.pulled_to_surface;
+    rc = 0;
+done:
+    wpd_grid_free(&surface);
+    free(ctx);
+    return rc;
+}
+
+static int finish_tile(engine *e, int t, double r, wpd_error *err)
+{
+    (void)r;
+    if (e->store[t].n == 0)
+        return 0;
+    wpd_tile_data d;
+    if (wpd_spill_read(e->spill, t, 1, &d, err))
+        return -1;
+    int rc = pick_records(e, t, &d)
+                 ? wpd_fail(err, WPD_E_IO, "tile %d: a sample's record is missing from the spill", t)
+                 : 0;
+    const wpd_params *p = &e->opt->params;
+    if (rc == 0 && p->smooth && p->iterations > 0)
+        rc = smooth_samples(e, t, &d, err);
+    wpd_tile_data_free(&d);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ merge */
+
+static int merge(engine *e, wpd_error *err)
+{
+    wpd_engine_result *res = e->res;
+    size_t n = store_count(e), rs = e->record_size;
+    uint64_t *key = malloc((n ? n : 1) * sizeof *key), *tk = malloc((n ? n : 1) * sizeof *tk);
+    uint32_t *val = malloc((n ? n : 1) * sizeof *val), *tv = malloc((n ? n : 1) * sizeof *tv);
+    const tile_samples **from = malloc((n ? n : 1) * sizeof *from);
+    res->gid = malloc((n ? n : 1) * sizeof *res->gid);
+    res->xyz = malloc((n ? n : 1) * 3 * sizeof *res->xyz);
+    res->records = malloc((n ? n : 1) * rs);
+    int rc = 0;
+    if (!key || !tk || !val || !tv || !from || !res->gid || !res->xyz || !res->records) {
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", n);
+        goto done;
+    }
+    size_t k = 0;
+    uint32_t *local = tv; /* index within its tile, before the sort reuses tv */
+    for (int t = 0; t < e->plan.ntiles; t++)
+        for (size_t i = 0; i < e->store[t].n; i++, k++) {
+            key[k] = e->store[t].gid[i];
+            val[k] = (uint32_t)k;
+            from[k] = &e->store[t];
+            local[k] = (uint32_t)i;
+        }
+    uint32_t *pos = malloc((n ? n : 1) * sizeof *pos);
+    if (!pos) {
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", n);
+        goto done;
+    }
+    memcpy(pos, local, n * sizeof *pos);
+    wpd_radix_sort_u64(key, val, n, 64, tk, tv);
+    for (size_t j = 0; j < n; j++) {
+        const tile_samples *s = from[val[j]];
+        size_t i = pos[val[j]];
+        res->gid[j] = key[j];
+        for (int a = 0; a < 3; a++)
+            res->xyz[3 * j + a] = s->xyz[3 * i + a] + e->scan.origin[a];
+        memcpy(res->records + j * rs, s->records + i * rs, rs);
+    }
+    free(pos);
+    res->count = n;
+done:
+    free(key);
+    free(tk);
+    free(val);
+    free(tv);
+    free(from);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ driver */
+
+static double global_radius(const engine *e)
+{
+    const wpd_params *p = &e->opt->params;
+    if (p->radius > 0)
+        return p->radius;
+    wpd_radius_info ri;
+    wpd_radius_from_counts(e->scan.edge, e->scan.voxels, e->scan.nscales, e->opt->target,
+                           p->density, &ri);
+    return ri.radius;
+}
+
+static int copy_tile_boxes(engine *e)
+{
+    double *box = malloc((size_t)e->plan.ntiles * 6 * sizeof *box);
+    if (!box)
+        return -1;
+    for (int t = 0; t < e->plan.ntiles; t++)
+        for (int a = 0; a < 3; a++) {
+            const wpd_tile *tile = &e->plan.tiles[t];
+            double lo = fmax(tile->box_lo[a], 0), hi = fmin(tile->box_hi[a], e->scan.extent[a]);
+            box[6 * t + a] = lo + e->scan.origin[a];
+            box[6 * t + 3 + a] = hi + e->scan.origin[a];
+        }
+    e->res->tile_box = box;
+    return 0;
+}
+
+static int check_budget(const engine *e, uint64_t declared, wpd_error *err)
+{
+    size_t need = wpd_engine_min_budget(e->opt->target, e->record_size, e->threads);
+    if (e->opt->mem_bytes < need)
+        return wpd_fail(err, WPD_E_MEMORY,
+                        "memory budget too small: %zu MiB given, at least %zu MiB needed for "
+                        "%llu output points from %llu input points (raise --mem or lower -n)",
+                        e->opt->mem_bytes >> 20, (need >> 20) + 1,
+                        (unsigned long long)e->opt->target, (unsigned long long)declared);
+    return 0;
+}
+
+static uint64_t max_tile_points(const engine *e)
+{
+    size_t fixed = FIXED_BYTES + SPILL_BUFFERS_MAX + samples_bytes(e->opt->target, e->record_size);
+    size_t left = e->opt->mem_bytes > fixed ? e->opt->mem_bytes - fixed : 0;
+    uint64_t m = left / ((size_t)e->threads * wpd_engine_bytes_per_tile_point(e->record_size));
+    return m < MIN_TILE_POINTS ? MIN_TILE_POINTS : m;
+}
+
+static int open_spill(engine *e, wpd_error *err)
+{
+    wpd_spill_options so;
+    wpd_spill_default_options(&so);
+    so.threads = e->threads;
+    size_t per_tile = SPILL_BUFFERS_MAX / (size_t)e->plan.ntiles;
+    if (so.buffer_bytes > per_tile)
+        so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile;
+    e->spill = wpd_spill_create(e->opt->tmpdir, e->plan.ntiles, e->record_size, &so, err);
+    return e->spill ? 0 : -1;
+}
+
+static int run_phases(engine *e, wpd_error *err)
+{
+    wpd_engine_result *res = e->res;
+    wpd_engine_timings *tm = &res->time;
+    if (wpd_scan_run(e->cloud, VOXEL_CAP, &e->scan, err))
+        return -1;
+    tm->bounds = e->scan.bounds_seconds;
+    tm->scan = e->scan.scan_seconds;
+    res->input_points = e->scan.count;
+    res->nfiles = e->scan.nfiles;
+    res->file_count = malloc((size_t)res->nfiles * sizeof *res->file_count);
+    if (!res->file_count)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    memcpy(res->file_count, e->scan.file_count, (size_t)res->nfiles * sizeof *res->file_count);
+
+    double t = omp_get_wtime();
+    res->radius_estimate = res->radius = global_radius(e);
+    /* The halo carries the input surface across borders for smoothing:
+     * samples move less than r, and the refinement changes r by little. */
+    if (wpd_plan_tiles(&e->scan, max_tile_points(e), e->opt->min_tiles, 2.5 * res->radius,
+                       &e->plan, err))
+        return -1;
+    res->tiles = e->plan.ntiles;
+    res->colours = e->plan.ncolours;
+    res->largest_tile = e->plan.largest;
+    if (copy_tile_boxes(e))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    if (!(e->store = calloc((size_t)e->plan.ntiles, sizeof *e->store)))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    tm->plan = omp_get_wtime() - t;
+
+    t = omp_get_wtime();
+    if (open_spill(e, err) || tile_pass(e, err))
+        return -1;
+    wpd_spill_get_stats(e->spill, &res->spill);
+    tm->tile = omp_get_wtime() - t;
+
+    t = omp_get_wtime();
+    if (refine_radius(e, res->radius, err))
+        return -1;
+    res->poisson_count = store_count(e);
+    tm->poisson = omp_get_wtime() - t;
+
+    t = omp_get_wtime();
+    if (exact_count(e, err))
+        return -1;
+    tm->exact = omp_get_wtime() - t;
+
+    t = omp_get_wtime();
+    if (for_each_tile_by_colour(e, finish_tile, res->radius, err))
+        return -1;
+    tm->smooth = omp_get_wtime() - t;
+
+    t = omp_get_wtime();
+    if (merge(e, err))
+        return -1;
+    tm->merge = omp_get_wtime() - t;
+    return 0;
+}
+
+int wpd_engine_run(wpd_cloud *cloud, const wpd_engine_options *opt, wpd_engine_result *res,
+                   wpd_error *err)
+{
+    memset(res, 0, sizeof *res);
+    engine e = {.opt = opt, .cloud = cloud, .res = res};
+    e.record_size = wpd_cloud_header(cloud, 0)->schema.record_size;
+    e.threads = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
+    res->record_size = e.record_size;
+    double t0 = omp_get_wtime();
+    if (opt->target < 1)
+        return wpd_fail(err, WPD_E_USAGE, "the target count must be at least 1");
+    if (check_budget(&e, wpd_cloud_count(cloud), err))
+        return -1;
+    int rc = run_phases(&e, err);
+    store_clear(&e);
+    free(e.store);
+    wpd_spill_destroy(e.spill);
+    wpd_plan_free(&e.plan);
+    wpd_scan_free(&e.scan);
+    if (rc)
+        wpd_engine_result_free(res);
+    else
+        res->time.total = omp_get_wtime() - t0;
+    return rc;
+}
+
+void wpd_engine_result_free(wpd_engine_result *res)
+{
+    free(res->gid);
+    free(res->xyz);
+    free(res->records);
+    free(res->file_count);
+    free(res->tile_box);
+    memset(res, 0, sizeof *res);
+}

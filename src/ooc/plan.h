@@ -1,0 +1,50 @@
+/* plan.h - cutting the cloud into tiles that fit the memory budget.
+ *
+ * Tiles are boxes of density-grid cells (the scan's coarse voxels), found
+ * by splitting the whole grid kd-tree style - the tile with the most points
+ * is split across its longest side at its median - until every tile holds
+ * at most max_points (and there are at least min_tiles). Two tiles are
+ * neighbours when their boxes come within the halo width of each other; a
+ * greedy colouring in tile order gives neighbours different colours, so the
+ * tiles of one colour can be processed at the same time while each sees
+ * the finished work of its neighbours of earlier colours.
+ */
+#ifndef WPD_PLAN_H
+#define WPD_PLAN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+#include "ooc/scan.h"
+
+typedef struct wpd_tile {
+    int lo[3], hi[3];          /* grid cells [lo, hi) per axis */
+    double box_lo[3], box_hi[3]; /* frame coordinates of the box */
+    uint64_t points;           /* home points */
+    int colour;
+    int nadj;                  /* neighbouring tiles */
+    int *adj;                  /* [nadj], ascending */
+} wpd_tile;
+
+typedef struct wpd_plan {
+    int ntiles;
+    wpd_tile *tiles;
+    int ncolours;
+    int *cell_tile;            /* [cells] tile of each density-grid cell */
+    double halo;               /* halo width */
+    uint64_t largest;          /* points of the largest tile */
+} wpd_plan;
+
+/* Plans tiles over scan's density grid. Returns 0, or -1 with err set
+ * (WPD_E_MEMORY, also when one grid cell alone holds more than 2 x
+ * max_points: the budget is then too small for this cloud). */
+int wpd_plan_tiles(const wpd_scan *scan, uint64_t max_points, int min_tiles, double halo,
+                   wpd_plan *out, wpd_error *err);
+
+/* Distance from frame point p to tile t's box (0 inside). */
+double wpd_tile_distance(const wpd_tile *t, const double p[3]);
+
+void wpd_plan_free(wpd_plan *p);
+
+#endif

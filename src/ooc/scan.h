@@ -1,0 +1,52 @@
+/* scan.h - the engine's streaming passes over the inputs before tiling.
+ *
+ * Pass 1 finds the bounds (the frame origin is their minimum corner, so
+ * every later coordinate is small and precise) and the finite points per
+ * file. Pass 2 counts occupied voxels and fills a coarse density grid:
+ * - voxels are counted at the finest power-of-two scale whose key set fits
+ *   a fixed cap: counting starts very fine and, whenever the set outgrows
+ *   the cap, every key is coarsened to the next scale (twice the edge);
+ *   the coarser scales' counts follow by coarsening the final set again.
+ *   Memory stays bounded whatever the input size; the global radius comes
+ *   from these counts (wpd_radius_from_counts).
+ * - the density grid (cubic cells, at most WPD_SCAN_GRID along the longest
+ *   axis) counts points per cell for the tile planner.
+ */
+#ifndef WPD_SCAN_H
+#define WPD_SCAN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+#include "io/cloud.h"
+#include "wpd/radius.h"
+
+#define WPD_SCAN_GRID 128
+
+typedef struct wpd_scan {
+    uint64_t count;                   /* finite points */
+    int nfiles;
+    uint64_t *file_count;             /* [nfiles] finite points per file */
+    double origin[3];                 /* frame origin: minimum corner */
+    double extent[3];                 /* bounding box size */
+    int nscales;
+    double edge[WPD_MAX_SCALES];      /* voxel edges, finest first, doubling */
+    uint64_t voxels[WPD_MAX_SCALES];  /* occupied voxels at each edge */
+    int dim[3];                       /* density grid cells per axis */
+    double cell, inv_cell;            /* density grid cell edge, its inverse */
+    uint64_t *density;                /* [dim0 * dim1 * dim2], x fastest */
+    double bounds_seconds, scan_seconds;
+} wpd_scan;
+
+/* Runs both passes over cloud (rewound before and after). voxel_cap: the
+ * most voxel keys held at once (memory: ~32 bytes each). Returns 0, or -1
+ * with err set (read errors; WPD_E_INPUT when there is no finite point). */
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_scan *out, wpd_error *err);
+
+/* Density grid cell of frame point p (clamped into the grid). */
+size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3]);
+
+void wpd_scan_free(wpd_scan *s);
+
+#endif
