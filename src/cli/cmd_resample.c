@@ -7,6 +7,8 @@
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "ooc/engine.h"
+#include "core/grid.h"
+#include "wpd/ladder.h"
 #include "wpd/smooth.h"
 #include "wpd/wpd.h"
 
@@ -320,8 +322,23 @@ static int run_in_memory(wpd_cloud *cloud, uint64_t target, const resample_optio
         return -1;
     info->t_load = omp_get_wtime() - t0;
     int rc = -1;
+    wpd_params params = o->params;
+    /* The multiscale radius as the out-of-core scan computes it, so that a
+     * cloud gives the same samples whether it fits --mem or is tiled. */
+    if (params.radius_method == WPD_RADIUS_MULTISCALE && target < c.n) {
+        double t = omp_get_wtime(), lo[3], hi[3], extent[3];
+        wpd_point_bounds(c.xyz, NULL, c.n, lo, hi, params.threads);
+        for (int k = 0; k < 3; k++)
+            extent[k] = hi[k] - lo[k];
+        params.radius = wpd_ladder_radius(c.xyz, c.n, extent, target, params.density);
+        if (params.radius < 0) {
+            wpd_fail(err, WPD_E_MEMORY, "out of memory for the radius estimate");
+            goto done;
+        }
+        info->t_radius = omp_get_wtime() - t;
+    }
     wpd_block block = {.n = c.n, .xyz = c.xyz, .gid = c.gid};
-    if (wpd_run_block(&block, target, &o->params, &res, err))
+    if (wpd_run_block(&block, target, &params, &res, err))
         goto done;
     sel->n = res.count;
     sel->record_size = c.record_size;
@@ -354,7 +371,7 @@ static int run_in_memory(wpd_cloud *cloud, uint64_t target, const resample_optio
     info->passes = res.passes;
     info->open_cells = res.open_cells;
     info->pulled = res.pulled_to_surface;
-    info->t_radius = res.time.radius;
+    info->t_radius += res.time.radius;
     info->t_poisson = res.time.poisson;
     info->t_exact = res.time.exact;
     info->t_smooth = res.time.normals + res.time.smooth;

@@ -12,6 +12,7 @@
 #include "ooc/plan.h"
 #include "ooc/scan.h"
 #include "wpd/exact.h"
+#include "wpd/ladder.h"
 #include "wpd/poisson.h"
 #include "wpd/radius.h"
 #include "wpd/refine.h"
@@ -20,9 +21,8 @@
 /* ------------------------------------------------------------------ budget */
 
 enum {
-    VOXEL_CAP = 1 << 21,                  /* voxel keys held by the scan */
-    FIXED_BYTES = 96 << 20,               /* scan sets, batches, plan, runtime */
-    SPILL_BUFFERS_MAX = 64 << 20,         /* all tiles' write buffers together */
+    FIXED_BYTES = 48 << 20,               /* voxel ladder, batches, plan, runtime */
+    SPILL_BUFFERS_MAX = 32 << 20,         /* all tiles' write buffers together */
     MIN_TILE_POINTS = 20000,
 };
 
@@ -626,6 +626,33 @@ static int finish_tile(engine *e, int t, double r, wpd_error *err)
     return rc;
 }
 
+/* n >= the input: every point is kept as it is (records picked up here). */
+static int take_all_tile(engine *e, int t, double r, wpd_error *err)
+{
+    (void)r;
+    wpd_tile_data d;
+    if (wpd_spill_read(e->spill, t, 1, &d, err))
+        return -1;
+    tile_samples *s = &e->store[t];
+    uint32_t rs = e->record_size;
+    s->gid = malloc((d.n ? d.n : 1) * sizeof *s->gid);
+    s->xyz = malloc((d.n ? d.n : 1) * 3 * sizeof *s->xyz);
+    s->records = malloc((d.n ? d.n : 1) * rs);
+    int rc = 0;
+    if (!s->gid || !s->xyz || !s->records)
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    for (size_t i = 0; rc == 0 && i < d.n; i++) {
+        if (d.halo[i])
+            continue;
+        s->gid[s->n] = d.gid[i];
+        memcpy(s->xyz + 3 * s->n, d.xyz + 3 * i, 3 * sizeof *s->xyz);
+        memcpy(s->records + s->n * rs, d.records + i * rs, rs);
+        s->n++;
+    }
+    wpd_tile_data_free(&d);
+    return rc;
+}
+
 /* ------------------------------------------------------------------ merge */
 
 static int merge(engine *e, wpd_error *err)
@@ -686,6 +713,17 @@ static double global_radius(const engine *e)
     if (p->radius > 0)
         return p->radius;
     wpd_radius_info ri;
+    if (p->radius_method == WPD_RADIUS_PAPER) {
+        /* eq. 4 at the counted scale nearest voxel_frac x the longest side */
+        double longest = fmax(e->scan.extent[0], fmax(e->scan.extent[1], e->scan.extent[2]));
+        int best = 0;
+        for (int s = 1; s < e->scan.nscales; s++)
+            if (fabs(log(e->scan.edge[s] / (p->voxel_frac * longest))) <
+                fabs(log(e->scan.edge[best] / (p->voxel_frac * longest))))
+                best = s;
+        return wpd_radius_paper_formula((double)e->scan.voxels[best], e->scan.edge[best],
+                                        e->opt->target, p->lambda);
+    }
     wpd_radius_from_counts(e->scan.edge, e->scan.voxels, e->scan.nscales, e->opt->target,
                            p->density, &ri);
     return ri.radius;
@@ -743,7 +781,7 @@ static int run_phases(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
     wpd_engine_timings *tm = &res->time;
-    if (wpd_scan_run(e->cloud, VOXEL_CAP, &e->scan, err))
+    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, &e->scan, err))
         return -1;
     tm->bounds = e->scan.bounds_seconds;
     tm->scan = e->scan.scan_seconds;
@@ -777,6 +815,11 @@ static int run_phases(engine *e, wpd_error *err)
     tm->tile = omp_get_wtime() - t;
 
     t = omp_get_wtime();
+    if (e->opt->target >= e->scan.count) {
+        if (for_each_tile_by_colour(e, take_all_tile, 0, err))
+            return -1;
+        return merge(e, err);
+    }
     if (refine_radius(e, res->radius, err))
         return -1;
     res->poisson_count = store_count(e);

@@ -5,70 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/voxel_set.h"
-
-/* Voxel keys pack 21 bits per axis: indices relative to the origin. */
-enum { KEY_BITS = 21 };
-#define KEY_MASK ((1ull << KEY_BITS) - 1)
-
-static uint64_t pack(uint64_t ix, uint64_t iy, uint64_t iz)
-{
-    return ix | iy << KEY_BITS | iz << (2 * KEY_BITS);
-}
-
-/* The key of the voxel twice as large that contains voxel key. */
-static uint64_t coarser(uint64_t key)
-{
-    return pack((key & KEY_MASK) >> 1, ((key >> KEY_BITS) & KEY_MASK) >> 1,
-                (key >> (2 * KEY_BITS)) >> 1);
-}
-
-/* Replaces set by the set of its voxels' parents. */
-static int coarsen(wpd_voxel_set *set)
-{
-    wpd_voxel_set next;
-    size_t cap = 1024;
-    while (cap < set->count)
-        cap <<= 1;
-    if (wpd_voxel_set_init(&next, cap) < 0)
-        return -1;
-    for (size_t i = 0; i < set->cap; i++)
-        if (set->slot[i] != WPD_VOXEL_KEY_EMPTY && wpd_voxel_set_put(&next, coarser(set->slot[i])))
-            return wpd_voxel_set_free(&next), -1;
-    wpd_voxel_set_free(set);
-    *set = next;
-    return 0;
-}
-
-/* State of pass 2. */
-typedef struct voxel_ladder {
-    wpd_voxel_set set;
-    double edge, inv;         /* current voxel edge */
-    int level;                /* coarsenings so far */
-    size_t cap;               /* keys allowed before coarsening */
-    uint64_t last;            /* last key put: scans repeat voxels */
-} voxel_ladder;
-
-static int ladder_put(voxel_ladder *v, const double p[3])
-{
-    uint64_t ix = (uint64_t)(p[0] * v->inv), iy = (uint64_t)(p[1] * v->inv),
-             iz = (uint64_t)(p[2] * v->inv);
-    uint64_t key = pack(ix & KEY_MASK, iy & KEY_MASK, iz & KEY_MASK);
-    if (key == v->last)
-        return 0;
-    v->last = key;
-    if (wpd_voxel_set_put(&v->set, key))
-        return -1;
-    while (v->set.count > v->cap) {
-        if (coarsen(&v->set))
-            return -1;
-        v->edge *= 2;
-        v->inv = 1.0 / v->edge;
-        v->level++;
-        v->last = WPD_VOXEL_KEY_EMPTY;
-    }
-    return 0;
-}
+#include "wpd/ladder.h"
 
 size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3])
 {
@@ -121,44 +58,13 @@ static void init_grid(wpd_scan *s)
     }
 }
 
-/* Counts of the final set and of every coarser scale, finest first. */
-static int finish_ladder(voxel_ladder *v, wpd_scan *s)
-{
-    s->nscales = 0;
-    double edge = v->edge;
-    while (s->nscales < WPD_MAX_SCALES) {
-        s->edge[s->nscales] = edge;
-        s->voxels[s->nscales] = v->set.count;
-        s->nscales++;
-        if (v->set.count <= 1)
-            break;
-        if (coarsen(&v->set))
-            return -1;
-        edge *= 2;
-    }
-    return 0;
-}
-
 static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_error *err)
 {
-    double longest = fmax(s->extent[0], fmax(s->extent[1], s->extent[2]));
-    voxel_ladder v = {.cap = voxel_cap < 1024 ? 1024 : voxel_cap, .last = WPD_VOXEL_KEY_EMPTY};
-    /* Start at the scale where the bounding box's largest face would fill
-     * half the cap (a surface scene), never finer than 2^16 voxels along
-     * the longest axis nor than one voxel per point; walls and vegetation
-     * make the set larger, and the cap coarsens it. Starting much finer
-     * only costs cache misses: on the NC Raleigh scan 2^16 cost 1.3 s. */
-    double e[3] = {s->extent[0], s->extent[1], s->extent[2]};
-    double face = fmax(e[0] * e[1], fmax(e[0] * e[2], e[1] * e[2]));
-    double keys = fmin((double)v.cap / 2, (double)s->count);
-    v.edge = fmax(longest / 65536.0, sqrt(face / fmax(keys, 1)));
-    if (!(v.edge > 0))
-        v.edge = 1.0;
-    v.inv = 1.0 / v.edge;
+    wpd_ladder v;
     wpd_batch b;
-    if (wpd_voxel_set_init(&v.set, 4096) ||
+    if (wpd_ladder_init(&v, s->extent, s->count, voxel_cap) ||
         wpd_batch_init(&b, 65536, wpd_cloud_header(cloud, 0)->schema.record_size)) {
-        wpd_voxel_set_free(&v.set);
+        wpd_ladder_free(&v);
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     }
     long got;
@@ -169,16 +75,16 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_error 
             for (int a = 0; a < 3; a++)
                 p[a] = b.xyz[3 * i + a] - s->origin[a];
             s->density[wpd_scan_cell_of(s, p)]++;
-            if (ladder_put(&v, p))
+            if (wpd_ladder_put(&v, p))
                 rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
         }
     }
     if (rc == 0 && got < 0)
         rc = -1;
-    if (rc == 0 && finish_ladder(&v, s))
+    if (rc == 0 && wpd_ladder_finish(&v, s->edge, s->voxels, &s->nscales))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     wpd_batch_free(&b);
-    wpd_voxel_set_free(&v.set);
+    wpd_ladder_free(&v);
     return rc;
 }
 

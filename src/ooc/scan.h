@@ -3,12 +3,9 @@
  * Pass 1 finds the bounds (the frame origin is their minimum corner, so
  * every later coordinate is small and precise) and the finite points per
  * file. Pass 2 counts occupied voxels and fills a coarse density grid:
- * - voxels are counted at the finest power-of-two scale whose key set fits
- *   a fixed cap: counting starts very fine and, whenever the set outgrows
- *   the cap, every key is coarsened to the next scale (twice the edge);
- *   the coarser scales' counts follow by coarsening the final set again.
- *   Memory stays bounded whatever the input size; the global radius comes
- *   from these counts (wpd_radius_from_counts).
+ * - occupied voxels at a ladder of scales (wpd/ladder.h), in bounded
+ *   memory whatever the input size; the global radius comes from these
+ *   counts, exactly as the in-memory path computes it.
  * - the density grid (cubic cells, at most WPD_SCAN_GRID along the longest
  *   axis) counts points per cell for the tile planner.
  */

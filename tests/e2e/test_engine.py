@@ -62,10 +62,13 @@ def distance_to_faces(xy, faces):
 
 
 def band_density(samples, area_points, faces, width, cell):
-    """Samples per unit area within `width` of the faces and elsewhere; the
-    area is the xy area the input covers (occupied cells of `cell`)."""
-    keys = np.unique(np.floor(area_points[:, :2] / cell).astype(np.int64), axis=0)
-    centres = (keys + 0.5) * cell
+    """Samples per unit of surface area within `width` (in x y) of the faces
+    and elsewhere. The surface area is the paper's voxel estimate: occupied
+    voxels of edge `cell` times cell^2 (slopes and walls count, so steep
+    terrain near a border does not look like a seam)."""
+    origin = area_points.min(0)
+    keys = np.unique(np.floor((area_points - origin) / cell).astype(np.int64), axis=0)
+    centres = (keys[:, :2] + 0.5) * cell + origin[:2]
     in_band_cell = distance_to_faces(centres, faces) < width
     d = distance_to_faces(samples[:, :2], faces)
     band = (d < width).sum() / (in_band_cell.sum() * cell * cell)
@@ -149,7 +152,7 @@ def test_lone_star_per_input_has_exact_union_and_no_seam():
     os.makedirs("per", exist_ok=True)
     os.makedirs("spill", exist_ok=True)
     n = 20000
-    wpd("resample", *tiles, "--per-input", "per", "-n", n, "-q", "--mem", "64M",
+    wpd("resample", *tiles, "--per-input", "per", "-n", n, "-q", "--min-tiles", 8,
         "--tmpdir", "spill", "--report", "rep.json")
     outs = [os.path.join("per", os.path.basename(t)) for t in tiles]
     counts = [read_las(o)["count"] for o in outs]
