@@ -369,6 +369,7 @@ static int run_in_memory(wpd_cloud *cloud, uint64_t target, const resample_optio
     info->first_pass_count = res.first_pass_count;
     info->poisson_count = res.poisson_count;
     info->passes = res.passes;
+    info->prune_passes = res.prune_passes;
     info->open_cells = res.open_cells;
     info->pulled = res.pulled_to_surface;
     info->t_radius += res.time.radius;

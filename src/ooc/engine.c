@@ -448,52 +448,31 @@ static int unflatten(engine *e, const flat_samples *f, const uint32_t *idx, size
     return rc;
 }
 
-/* An overshooting pass is pruned in memory: a Poisson pass over its samples
- * (same priorities) at a larger radius keeps a subset no two of which are
- * closer than that radius, across tiles too since all samples take part.
- * The radius is found by bisection between the pass's radius (count above
- * 1.05 n) and a radius whose count falls below n. */
-static int prune_to_range(engine *e, double r_lo, size_t count, double *r_out, wpd_error *err)
+/* An overshooting pass is pruned in memory (wpd_prune_to_range): all
+ * samples take part, so the pruned set keeps the Poisson property across
+ * tiles too. */
+static int prune_to_range(engine *e, double r_lo, wpd_error *err)
 {
-    size_t n = e->opt->target;
     flat_samples f = {0};
-    uint32_t *kept = NULL, *best = NULL;
-    size_t best_count = 0;
+    uint32_t *kept = NULL;
     int rc = -1;
-    if (flatten(e, &f) || !(kept = malloc(f.n * sizeof *kept)) ||
-        !(best = malloc(f.n * sizeof *best))) {
+    if (flatten(e, &f) || !(kept = malloc((f.n ? f.n : 1) * sizeof *kept))) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
         goto done;
     }
-    double r_hi = r_lo * sqrt((double)count / (double)n) * 1.25, r = r_lo;
-    *r_out = r_lo;
-    for (int it = 0; it < 30; it++) {
-        r = it == 0 ? r_lo * sqrt((double)count / (1.025 * (double)n)) : 0.5 * (r_lo + r_hi);
-        wpd_poisson_input in = {f.xyz, f.gid, NULL, NULL, f.n, NULL, 0, r,
-                                e->opt->params.seed, e->threads};
-        long m = wpd_poisson_pass(&in, kept, err);
-        if (m < 0)
-            goto done;
-        e->res->prune_passes++;
-        if ((size_t)m >= n) {
-            r_lo = r;
-            memcpy(best, kept, (size_t)m * sizeof *best);
-            best_count = (size_t)m;
-            *r_out = r;
-            if ((double)m <= (1 + WPD_COUNT_TOLERANCE) * (double)n)
-                break;
-        } else {
-            r_hi = r;
-        }
-    }
-    /* best_count == 0: nothing landed in range above n; keep the pass. */
-    rc = best_count ? unflatten(e, &f, best, best_count) : 0;
-    if (rc)
+    long m = wpd_prune_to_range(f.xyz, f.gid, NULL, f.n, e->opt->target, r_lo,
+                                e->opt->params.seed, e->threads, kept, &e->res->radius,
+                                &e->res->prune_passes, err);
+    if (m < 0)
+        goto done;
+    if (unflatten(e, &f, kept, (size_t)m)) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
+        goto done;
+    }
+    rc = 0;
 done:
     flat_free(&f);
     free(kept);
-    free(best);
     return rc;
 }
 
@@ -515,7 +494,7 @@ static int refine_radius(engine *e, double r0, wpd_error *err)
         if (s == WPD_REFINE_DONE)
             return 0;
         if (count > n)
-            return prune_to_range(e, r, count, &e->res->radius, err);
+            return prune_to_range(e, r, err);
         if (s == WPD_REFINE_GAVE_UP)
             return 0;
     }

@@ -1,7 +1,11 @@
 /* refine.c - radius updates of paper eq. 5-6. */
 #include "wpd/refine.h"
 
+#include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include "wpd/poisson.h"
 
 void wpd_refine_init(wpd_refine *st, size_t target, double r0, int max_passes)
 {
@@ -40,4 +44,43 @@ wpd_refine_status wpd_refine_report(wpd_refine *st, size_t count)
 int wpd_refine_can_prune(const wpd_refine *st)
 {
     return st->r_superset > 0 && st->r_superset <= st->r;
+}
+
+long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *cand,
+                        size_t count, size_t target, double r_lo, uint64_t seed, int threads,
+                        uint32_t *out, double *r_out, int *passes, wpd_error *err)
+{
+    uint32_t *kept = malloc((count ? count : 1) * sizeof *kept);
+    if (!kept)
+        return wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory pruning %zu samples", count);
+    for (size_t i = 0; i < count; i++)
+        out[i] = cand ? cand[i] : (uint32_t)i;
+    size_t best = count;
+    *r_out = r_lo;
+    /* Count falls roughly as r^-2: aim just above target first. */
+    double r_hi = r_lo * sqrt((double)count / (double)target) * 1.25;
+    for (int it = 0; it < 30; it++) {
+        double r = it == 0 ? r_lo * sqrt((double)count / (1.025 * (double)target))
+                           : 0.5 * (r_lo + r_hi);
+        wpd_poisson_input in = {xyz, gid, NULL, cand, count, NULL, 0, r, seed, threads};
+        long m = wpd_poisson_pass(&in, kept, err);
+        if (m < 0) {
+            free(kept);
+            return -1;
+        }
+        if (passes)
+            (*passes)++;
+        if ((size_t)m < target) {
+            r_hi = r;
+            continue;
+        }
+        r_lo = r;
+        best = (size_t)m;
+        *r_out = r;
+        memcpy(out, kept, best * sizeof *out);
+        if ((double)m <= (1 + WPD_COUNT_TOLERANCE) * (double)target)
+            break;
+    }
+    free(kept);
+    return (long)best;
 }

@@ -19,6 +19,10 @@
 #ifndef WPD_REFINE_H
 #define WPD_REFINE_H
 
+#include <stdint.h>
+
+#include "common/error.h"
+
 #include <stddef.h>
 
 #define WPD_THETA1 1.8
@@ -59,3 +63,16 @@ wpd_refine_status wpd_refine_report(wpd_refine *st, size_t count);
 int wpd_refine_can_prune(const wpd_refine *st);
 
 #endif
+
+/* Settles an overshooting pass by pruning it: Poisson passes over its
+ * samples cand[0..count-1] (indices into xyz/gid; same priorities) at
+ * radii above r_lo, its radius, found by bisection until a count lands in
+ * [target, 1.05 target] (at most 30 passes). A pruned set keeps the
+ * Poisson property at its larger radius. Writes the best subset with at
+ * least target samples (ascending) to out (room for count) and returns its
+ * size; when no radius kept target or more, out = cand. *r_out gets the
+ * radius of that subset, *passes (may be NULL) is incremented per pass.
+ * Returns -1 with err set when out of memory. */
+long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *cand,
+                        size_t count, size_t target, double r_lo, uint64_t seed, int threads,
+                        uint32_t *out, double *r_out, int *passes, wpd_error *err);

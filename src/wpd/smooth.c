@@ -197,19 +197,22 @@ static int smooth_one(const wpd_smooth_input *in, const frames *f, const double 
     /* The cell is built from the nearest VORONOI_NEIGHBOURS of the k whose
      * normal fit defines the plane (see the constant); the release's mode
      * keeps all k, as the release does. */
-    int m = f->cnt[o];
+    int all = f->cnt[o], m = all;
     if (in->mode != WPD_SMOOTH_VERTEX_MEAN && m > VORONOI_NEIGHBOURS)
         m = VORONOI_NEIGHBOURS;
-    double q[2 * WPD_KNN_MAX];
-    for (int j = 0; j < m; j++) {
+    double q[2 * WPD_KNN_MAX], frame = 0;
+    for (int j = 0; j < all; j++) {
         const double *pj = nb[j] < f->n ? prev + 3 * (size_t)nb[j]
                                         : in->ctx_xyz + 3 * (size_t)(nb[j] - f->n);
         double d[3] = {pj[0] - p[0], pj[1] - p[1], pj[2] - p[2]};
         q[2 * j] = d[0] * u[0] + d[1] * u[1] + d[2] * u[2];
         q[2 * j + 1] = d[0] * v[0] + d[1] * v[1] + d[2] * v[2];
+        frame = fmax(frame, fmax(fabs(q[2 * j]), fabs(q[2 * j + 1])));
     }
+    /* The frame spans all k neighbours: a cell cut by the nearest few that
+     * reaches past the farthest of the k is open. */
     wpd_voronoi_cell cell;
-    wpd_voronoi_cell_2d(q, m, 0, &cell);
+    wpd_voronoi_cell_2d(q, m, frame, &cell);
     double c[2];
     int ok = cell.closed;
     if (in->mode == WPD_SMOOTH_COTAN)

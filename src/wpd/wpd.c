@@ -149,6 +149,26 @@ static int poisson_refined(const wpd_block *b, const uint8_t *edge, size_t targe
             res->first_pass_count = (size_t)got;
         wpd_refine_status status = wpd_refine_report(&st, (size_t)got);
         res->passes = st.passes;
+        if (status == WPD_REFINE_AGAIN && (size_t)got > target && !p->prune_previous) {
+            /* Overshoot: settled by pruning this pass (as the out-of-core
+             * engine does), not by more passes over the input. */
+            uint32_t *pruned = malloc((size_t)got * sizeof *pruned);
+            long m = pruned ? wpd_prune_to_range(b->xyz, b->gid, work, (size_t)got, target,
+                                                 st.last_r, p->seed, threads, pruned,
+                                                 &res->radius, &res->prune_passes, err)
+                            : wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory for %ld samples",
+                                       got);
+            if (m < 0) {
+                free(pruned);
+                goto fail;
+            }
+            *out = pruned;
+            *count = (size_t)m;
+            free(work);
+            free(super);
+            wpd_poisson_release(full);
+            return 0;
+        }
         if (status == WPD_REFINE_DONE || (status == WPD_REFINE_GAVE_UP && !super) ||
             (status == WPD_REFINE_GAVE_UP && st.superset_is_last)) {
             res->radius = st.last_r;

@@ -112,7 +112,8 @@ typedef struct wpd_result {
     double radius;            /* radius of the pass that was kept */
     size_t first_pass_count;  /* samples of the first pass (estimate quality) */
     size_t poisson_count;     /* samples before the exact count */
-    int passes;               /* Poisson passes run */
+    int passes;               /* Poisson passes run over the input */
+    int prune_passes;         /* passes pruning an overshooting pass */
     int exact_sweeps;
     size_t open_cells;        /* samples left in place for an open Voronoi cell */
     size_t pulled_to_surface; /* samples pulled back towards the input (smooth.c) */
