@@ -637,50 +637,45 @@ static int take_all_tile(engine *e, int t, double r, wpd_error *err)
 static int merge(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
-    size_t n = store_count(e), rs = e->record_size;
-    uint64_t *key = malloc((n ? n : 1) * sizeof *key), *tk = malloc((n ? n : 1) * sizeof *tk);
-    uint32_t *val = malloc((n ? n : 1) * sizeof *val), *tv = malloc((n ? n : 1) * sizeof *tv);
-    const tile_samples **from = malloc((n ? n : 1) * sizeof *from);
-    res->gid = malloc((n ? n : 1) * sizeof *res->gid);
-    res->xyz = malloc((n ? n : 1) * 3 * sizeof *res->xyz);
-    res->records = malloc((n ? n : 1) * rs);
+    size_t n = store_count(e), rs = e->record_size, m = n ? n : 1;
+    uint64_t *key = malloc(m * sizeof *key), *tk = malloc(m * sizeof *tk);
+    uint32_t *val = malloc(m * sizeof *val), *tv = malloc(m * sizeof *tv);
+    uint32_t *tile_of = malloc(m * sizeof *tile_of), *local = malloc(m * sizeof *local);
+    res->gid = malloc(m * sizeof *res->gid);
+    res->xyz = malloc(m * 3 * sizeof *res->xyz);
+    res->records = malloc(m * rs);
     int rc = 0;
-    if (!key || !tk || !val || !tv || !from || !res->gid || !res->xyz || !res->records) {
+    if (!key || !tk || !val || !tv || !tile_of || !local || !res->gid || !res->xyz ||
+        !res->records) {
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", n);
         goto done;
     }
+    /* Every sample's (tile, place in tile), then the order of their gids. */
     size_t k = 0;
-    uint32_t *local = tv; /* index within its tile, before the sort reuses tv */
     for (int t = 0; t < e->plan.ntiles; t++)
         for (size_t i = 0; i < e->store[t].n; i++, k++) {
             key[k] = e->store[t].gid[i];
             val[k] = (uint32_t)k;
-            from[k] = &e->store[t];
+            tile_of[k] = (uint32_t)t;
             local[k] = (uint32_t)i;
         }
-    uint32_t *pos = malloc((n ? n : 1) * sizeof *pos);
-    if (!pos) {
-        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", n);
-        goto done;
-    }
-    memcpy(pos, local, n * sizeof *pos);
     wpd_radix_sort_u64(key, val, n, 64, tk, tv);
     for (size_t j = 0; j < n; j++) {
-        const tile_samples *s = from[val[j]];
-        size_t i = pos[val[j]];
+        const tile_samples *s = &e->store[tile_of[val[j]]];
+        size_t i = local[val[j]];
         res->gid[j] = key[j];
         for (int a = 0; a < 3; a++)
             res->xyz[3 * j + a] = s->xyz[3 * i + a] + e->scan.origin[a];
         memcpy(res->records + j * rs, s->records + i * rs, rs);
     }
-    free(pos);
     res->count = n;
 done:
     free(key);
     free(tk);
     free(val);
     free(tv);
-    free(from);
+    free(tile_of);
+    free(local);
     return rc;
 }
 
