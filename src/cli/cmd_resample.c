@@ -22,6 +22,7 @@
 #include <strings.h>
 #include <libgen.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 static const char *usage_text =
@@ -32,6 +33,9 @@ static const char *usage_text =
     "  -o, --output FILE     output (.las or .ply); must not exist unless --force\n"
     "      --per-input DIR   instead of -o: one output per input file in DIR (same\n"
     "                        name), holding the resampled points that fall in it\n"
+    "      --skip-existing   with --per-input: leave out inputs whose output is newer\n"
+    "                        than the input (outputs older than their input are\n"
+    "                        replaced); the rest are resampled as one cloud\n"
     "  -n, --count N         points to keep: a number (k, M suffixes) or a\n"
     "                        percentage of the input (\"10%\"); N >= input copies it\n"
     "      --lambda L        area overlap factor of the radius estimate (0.68)\n"
@@ -64,6 +68,7 @@ typedef struct resample_options {
     const char *report;       /* JSON report path, or NULL */
     size_t mem_bytes;         /* 0: default */
     int min_tiles;
+    int skip_existing;        /* --per-input: skip inputs whose output is newer */
     int quiet;
     wpd_params params;
     wpd_write_options write;
@@ -125,7 +130,8 @@ static int parse_positive(const char *text, double lo, double hi, double *out)
 
 enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
        OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
-       OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT };
+       OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT,
+       OPT_SKIP_EXISTING };
 
 static int parse_option(int c, const char *arg, resample_options *o)
 {
@@ -156,6 +162,7 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_PER_INPUT: o->per_input = arg; return 0;
     case OPT_TMPDIR: o->tmpdir = arg; return 0;
     case OPT_REPORT: o->report = arg; return 0;
+    case OPT_SKIP_EXISTING: o->skip_existing = 1; return 0;
     case OPT_MEM: return parse_size(arg, &o->mem_bytes);
     case OPT_MIN_TILES: if (parse_positive(arg, 1, 1e6, &v)) return -1; o->min_tiles = (int)v; return 0;
     case OPT_RADIUS_EST:
@@ -183,6 +190,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"free-surface", no_argument, 0, OPT_FREE_SURFACE},
         {"per-input", required_argument, 0, OPT_PER_INPUT}, {"mem", required_argument, 0, OPT_MEM},
         {"tmpdir", required_argument, 0, OPT_TMPDIR}, {"report", required_argument, 0, OPT_REPORT},
+        {"skip-existing", no_argument, 0, OPT_SKIP_EXISTING},
         {"min-tiles", required_argument, 0, OPT_MIN_TILES},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
@@ -205,6 +213,12 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
     if (optind >= argc || !o->count_text || !o->output == !o->per_input) {
         fprintf(stderr, "wpd resample: need inputs, -n N and one of -o OUT or --per-input DIR\n");
         fputs(usage_text, stderr);
+        return -1;
+    }
+    if (o->skip_existing)
+        o->write.overwrite = 1; /* outputs older than their input are replaced */
+    if (o->skip_existing && !o->per_input) {
+        fprintf(stderr, "wpd resample: --skip-existing goes with --per-input\n");
         return -1;
     }
     if (o->output && wpd_format_from_name(o->output) == WPD_FMT_NONE) {
@@ -547,6 +561,27 @@ done:
     return rc;
 }
 
+/* --skip-existing: moves the inputs that still need work to the front of
+ * inputs and returns how many there are. An input needs work unless its
+ * output in outdir exists and is at least as new. */
+static int drop_up_to_date(char **inputs, int n, const char *outdir)
+{
+    int kept = 0;
+    for (int i = 0; i < n; i++) {
+        char base[1024], out[2048];
+        snprintf(base, sizeof base, "%s", inputs[i]);
+        snprintf(out, sizeof out, "%s/%s", outdir, basename(base));
+        struct stat si, so;
+        int fresh = stat(inputs[i], &si) == 0 && stat(out, &so) == 0 &&
+                    (so.st_mtim.tv_sec > si.st_mtim.tv_sec ||
+                     (so.st_mtim.tv_sec == si.st_mtim.tv_sec &&
+                      so.st_mtim.tv_nsec >= si.st_mtim.tv_nsec));
+        if (!fresh)
+            inputs[kept++] = inputs[i];
+    }
+    return kept;
+}
+
 int wpd_cmd_resample(int argc, char **argv)
 {
     resample_options o;
@@ -557,7 +592,18 @@ int wpd_cmd_resample(int argc, char **argv)
     if (o.params.threads > 0)
         omp_set_num_threads(o.params.threads);
     wpd_error err = {0};
-    if (resample(argv + first, argc - first, &o, &err))
+    char **inputs = argv + first;
+    int ninputs = argc - first;
+    if (o.skip_existing && (ninputs = drop_up_to_date(inputs, ninputs, o.per_input)) == 0) {
+        if (!o.quiet)
+            printf("every output in %s is newer than its input: nothing to do\n", o.per_input);
+        return 0;
+    }
+    const char *target = o.output ? o.output : o.per_input;
+    int lock = wpd_output_lock(target, &err);
+    if (lock < 0)
         return wpd_report_error("resample", &err);
-    return 0;
+    rc = resample(inputs, ninputs, &o, &err);
+    wpd_output_unlock(lock, target);
+    return rc ? wpd_report_error("resample", &err) : 0;
 }

@@ -1,11 +1,14 @@
 #include "common/outfile.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -22,8 +25,82 @@ static int make_temp_name(wpd_outfile *f, const char *path)
     return n > 0 && (size_t)n < sizeof f->temp_path ? 0 : -1;
 }
 
+/* Splits path into its directory and base name (copies in dir, base). */
+static void split_path(const char *path, char *dir, char *base, size_t size)
+{
+    char a[1024], b[1024];
+    snprintf(a, sizeof a, "%s", path);
+    snprintf(b, sizeof b, "%s", path);
+    snprintf(dir, size, "%s", dirname(a));
+    snprintf(base, size, "%s", basename(b));
+}
+
+/* 1 if the process pid no longer exists. */
+static int pid_is_dead(long pid)
+{
+    return pid > 0 && kill((pid_t)pid, 0) != 0 && errno == ESRCH;
+}
+
+int wpd_outfile_sweep_stale(const char *path)
+{
+    char dir[1024], base[1024], prefix[1100];
+    split_path(path, dir, base, sizeof dir);
+    int plen = snprintf(prefix, sizeof prefix, ".%s.wpd-tmp-", base);
+    DIR *d = opendir(dir);
+    if (!d)
+        return 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        char *end;
+        if (strncmp(e->d_name, prefix, (size_t)plen))
+            continue;
+        long pid = strtol(e->d_name + plen, &end, 10);
+        if (*end != '-' || strlen(end + 1) != 6 || !pid_is_dead(pid))
+            continue;
+        char victim[2200];
+        snprintf(victim, sizeof victim, "%s/%s", dir, e->d_name);
+        removed += unlink(victim) == 0;
+    }
+    closedir(d);
+    return removed;
+}
+
+static void lock_path(const char *path, char *out, size_t size)
+{
+    char dir[1024], base[1024];
+    split_path(path, dir, base, sizeof dir);
+    snprintf(out, size, "%s/.%s.wpd-lock", dir, base);
+}
+
+int wpd_output_lock(const char *path, wpd_error *err)
+{
+    char lock[2200];
+    lock_path(path, lock, sizeof lock);
+    int fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return wpd_fail_errno(err, "%s: cannot create lock file %s", path, lock);
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        close(fd);
+        return wpd_fail(err, WPD_E_IO, "%s: being written by another wpd run (lock %s)", path,
+                        lock);
+    }
+    return fd;
+}
+
+void wpd_output_unlock(int fd, const char *path)
+{
+    if (fd < 0)
+        return;
+    char lock[2200];
+    lock_path(path, lock, sizeof lock);
+    unlink(lock);
+    close(fd);
+}
+
 int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error *err)
 {
+    wpd_outfile_sweep_stale(path);
     memset(f, 0, sizeof *f);
     f->fd = -1;
     if (strlen(path) >= sizeof f->final_path || make_temp_name(f, path))

@@ -23,6 +23,21 @@ int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *er
 int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long off,
                        wpd_error *err);
 
+/* Takes an exclusive lock on writing path, so that two runs writing the
+ * same output cannot collide: flock on "<dir>/.<base>.wpd-lock". A lock
+ * left by a killed run is released by the kernel, so it never blocks a
+ * later run. Returns the lock's descriptor, or -1 with err set (WPD_E_IO:
+ * "being written by another wpd run"). */
+int wpd_output_lock(const char *path, wpd_error *err);
+
+/* Releases a lock taken by wpd_output_lock and removes its file. */
+void wpd_output_unlock(int fd, const char *path);
+
+/* Removes temporary outputs of path (".<base>.wpd-tmp-<pid>-XXXXXX" in its
+ * directory) left by runs that no longer exist (killed with SIGKILL, power
+ * loss). Returns how many were removed. wpd_outfile_open calls it. */
+int wpd_outfile_sweep_stale(const char *path);
+
 /* 1 if path names an existing file that is also one of paths[0..n-1] (same
  * device and inode): writing it would destroy an input. */
 int wpd_path_is_one_of(const char *path, char *const *paths, int n);
