@@ -12,7 +12,7 @@ step "Generate a 200,000-point synthetic city scan (terrain, buildings, trees, 3
     ./wpd synth -n 200000 --seed 7 -o "$out/city.las"
 step "Describe it" ./wpd info "$out/city.las"
 step "Resample it to exactly 20,000 evenly spaced points (every attribute kept)" \
-    ./wpd resample "$out/city.las" -o "$out/city_20k.las" -n 20000
+    ./wpd resample "$out/city.las" -o "$out/city_20k.las" -n 20000 --verbose
 step "Measure the result against the input" \
     ./wpd metrics "$out/city.las" "$out/city_20k.las"
 step "Convert the result to PLY (x y z as double, every LAS dimension kept as a property)" \

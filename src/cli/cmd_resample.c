@@ -58,7 +58,14 @@ static const char *usage_text =
     "      --report FILE     write what the run did as JSON (docs/report.md)\n"
     "      --ascii           ascii PLY output\n"
     "      --force           replace OUT if it exists\n"
-    "  -q, --quiet           print nothing on success\n";
+    "  -v, --verbose         progress and the summary even when not on a terminal\n"
+    "  -q, --quiet           print nothing on success (errors still go to stderr)\n"
+    "Progress goes to stderr when it is a terminal, the summary to stdout when it is\n"
+    "one (or with --verbose).\n"
+    "Exit status: 0 success, 1 usage error (also: output exists, output is an input),\n"
+    "2 bad input file, 3 I/O error (also: disk full, output locked by another run),\n"
+    "4 memory budget too small or out of memory, 130 / 143 interrupted (SIGINT /\n"
+    "SIGTERM): no partial output and no spill files are left behind.\n";
 
 typedef struct resample_options {
     const char *output;       /* one output, or NULL with per_input */
@@ -69,7 +76,8 @@ typedef struct resample_options {
     size_t mem_bytes;         /* 0: default */
     int min_tiles;
     int skip_existing;        /* --per-input: skip inputs whose output is newer */
-    int quiet;
+    int quiet, verbose;
+    wpd_progress progress;
     wpd_params params;
     wpd_write_options write;
 } resample_options;
@@ -141,6 +149,7 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case 'o': o->output = arg; return 0;
     case 'n': o->count_text = arg; return 0;
     case 'q': o->quiet = 1; return 0;
+    case 'v': o->verbose = 1; return 0;
     case 'k': if (parse_positive(arg, 3, 64, &v)) return -1; p->k = (int)v; return 0;
     case OPT_LAMBDA: return parse_positive(arg, 1e-3, 1e3, &p->lambda);
     case OPT_VOXEL: return parse_positive(arg, 1e-6, 1, &p->voxel_frac);
@@ -179,7 +188,8 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
 {
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"count", required_argument, 0, 'n'},
-        {"quiet", no_argument, 0, 'q'}, {"lambda", required_argument, 0, OPT_LAMBDA},
+        {"quiet", no_argument, 0, 'q'}, {"verbose", no_argument, 0, 'v'},
+        {"lambda", required_argument, 0, OPT_LAMBDA},
         {"voxel-frac", required_argument, 0, OPT_VOXEL},
         {"iterations", required_argument, 0, OPT_ITER},
         {"no-smooth", no_argument, 0, OPT_NOSMOOTH}, {"sharp", no_argument, 0, OPT_SHARP},
@@ -197,7 +207,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
     wpd_params_default(&o->params);
     int c, idx;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:n:k:qh", longopts, &idx)) != -1) {
+    while ((c = getopt_long(argc, argv, "o:n:k:qvh", longopts, &idx)) != -1) {
         if (c == 'h') {
             fputs(usage_text, stdout);
             return 1;
@@ -226,6 +236,8 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         return -1;
     }
     *first_input = optind;
+    wpd_progress_init(&o->progress, o->quiet ? WPD_PROGRESS_QUIET
+                                    : o->verbose ? WPD_PROGRESS_VERBOSE : WPD_PROGRESS_AUTO);
     return 0;
 }
 
@@ -267,7 +279,7 @@ static void loaded_free(loaded_cloud *c)
     memset(c, 0, sizeof *c);
 }
 
-static int load_cloud(wpd_cloud *cloud, loaded_cloud *out, wpd_error *err)
+static int load_cloud(wpd_cloud *cloud, loaded_cloud *out, wpd_progress *pg, wpd_error *err)
 {
     memset(out, 0, sizeof *out);
     uint64_t cap = wpd_cloud_count(cloud);
@@ -287,6 +299,7 @@ static int load_cloud(wpd_cloud *cloud, loaded_cloud *out, wpd_error *err)
         memcpy(out->records + out->n * out->record_size, b.records, b.n * out->record_size);
         memcpy(out->xyz + 3 * out->n, b.xyz, b.n * 3 * sizeof *b.xyz);
         out->n += b.n;
+        wpd_progress_add(pg, b.n);
     }
     wpd_batch_free(&b);
     if (got < 0) {
@@ -325,15 +338,18 @@ static void output_lattice(wpd_cloud *cloud, const resample_options *o, double r
         res[k] = first->las.scale[k];
 }
 
-static int run_in_memory(wpd_cloud *cloud, uint64_t target, const resample_options *o,
+static int run_in_memory(wpd_cloud *cloud, uint64_t target, resample_options *o,
                          wpd_selection *sel, uint64_t **file_count, wpd_run_info *info,
                          wpd_error *err)
 {
     loaded_cloud c;
     wpd_result res = {0};
     double t0 = omp_get_wtime();
-    if (load_cloud(cloud, &c, err))
+    wpd_progress *pg = &o->progress;
+    wpd_progress_phase(pg, "load", wpd_cloud_count(cloud), "points");
+    if (load_cloud(cloud, &c, pg, err))
         return -1;
+    wpd_progress_end(pg);
     info->t_load = omp_get_wtime() - t0;
     int rc = -1;
     wpd_params params = o->params;
@@ -352,8 +368,11 @@ static int run_in_memory(wpd_cloud *cloud, uint64_t target, const resample_optio
         info->t_radius = omp_get_wtime() - t;
     }
     wpd_block block = {.n = c.n, .xyz = c.xyz, .gid = c.gid};
+    wpd_progress_phase(pg, "resample", 0, "points");
     if (wpd_run_block(&block, target, &params, &res, err))
         goto done;
+    wpd_progress_add(pg, res.count);
+    wpd_progress_end(pg);
     sel->n = res.count;
     sel->record_size = c.record_size;
     sel->moved = o->params.smooth && target < c.n;
@@ -407,7 +426,7 @@ static const char *spill_base(const resample_options *o)
     return NULL; /* the output's directory */
 }
 
-static int run_engine(wpd_cloud *cloud, uint64_t target, const resample_options *o,
+static int run_engine(wpd_cloud *cloud, uint64_t target, resample_options *o,
                       wpd_selection *sel, uint64_t **file_count, double **tile_box,
                       wpd_run_info *info, wpd_error *err)
 {
@@ -422,7 +441,8 @@ static int run_engine(wpd_cloud *cloud, uint64_t target, const resample_options 
                         "implemented out of core yet): raise --mem above %zu MiB",
                         in_memory_bytes(wpd_cloud_count(cloud),
                                         wpd_cloud_header(cloud, 0)->schema.record_size) >> 20);
-    wpd_engine_options eo = {target, o->mem_bytes, base, o->min_tiles, o->params};
+    wpd_engine_options eo = {target, o->mem_bytes, base, o->min_tiles, o->params,
+                             &o->progress};
     wpd_engine_result r;
     if (wpd_engine_run(cloud, &eo, &r, err))
         return -1;
@@ -544,12 +564,15 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
                 "dropped\n", (unsigned long long)wpd_cloud_dropped(cloud));
     double tw = omp_get_wtime();
+    wpd_progress_phase(&o->progress, "write", sel.n, "points");
     if (rc == 0)
         rc = write_outputs(&sel, cloud, file_count, o, err);
+    wpd_progress_add(&o->progress, rc == 0 ? sel.n : 0);
+    wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
     info.peak_rss_kb = peak_rss_kb();
-    if (rc == 0 && !o->quiet)
+    if (rc == 0 && !o->quiet && (o->verbose || isatty(STDOUT_FILENO)))
         print_summary(&info, o);
     if (rc == 0 && o->report)
         rc = wpd_report_write(o->report, &info, err);

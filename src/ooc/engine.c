@@ -243,6 +243,7 @@ static int tile_pass(engine *e, wpd_error *err)
         if (append_groups(e, &r, &b, fxyz, gid, err))
             goto done;
         gid += b.n;
+        wpd_progress_add(e->opt->progress, b.n);
     }
     if (got < 0 || wpd_spill_finish(e->spill, err))
         goto done;
@@ -361,7 +362,9 @@ static int for_each_tile_by_colour(engine *e, tile_fn fn, double r, wpd_error *e
             if (e->plan.tiles[t].colour != c || failed)
                 continue;
             wpd_error local = {0};
-            if (fn(e, t, r, &local)) {
+            int failed_here = fn(e, t, r, &local);
+            wpd_progress_add(e->opt->progress, 1);
+            if (failed_here) {
 #pragma omp critical
                 if (!failed) {
                     failed = 1;
@@ -378,8 +381,10 @@ static int for_each_tile_by_colour(engine *e, tile_fn fn, double r, wpd_error *e
 static int full_pass(engine *e, double r, size_t *count, wpd_error *err)
 {
     store_clear(e);
+    wpd_progress_phase(e->opt->progress, "poisson", (uint64_t)e->plan.ntiles, "tiles");
     if (for_each_tile_by_colour(e, poisson_tile, r, err))
         return -1;
+    wpd_progress_end(e->opt->progress);
     *count = store_count(e);
     e->res->full_passes++;
     return 0;
@@ -755,7 +760,7 @@ static int run_phases(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
     wpd_engine_timings *tm = &res->time;
-    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, &e->scan, err))
+    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, e->opt->progress, &e->scan, err))
         return -1;
     tm->bounds = e->scan.bounds_seconds;
     tm->scan = e->scan.scan_seconds;
@@ -783,8 +788,10 @@ static int run_phases(engine *e, wpd_error *err)
     tm->plan = omp_get_wtime() - t;
 
     t = omp_get_wtime();
+    wpd_progress_phase(e->opt->progress, "tile", e->scan.count, "points");
     if (open_spill(e, err) || tile_pass(e, err))
         return -1;
+    wpd_progress_end(e->opt->progress);
     wpd_spill_get_stats(e->spill, &res->spill);
     tm->tile = omp_get_wtime() - t;
 
@@ -805,8 +812,10 @@ static int run_phases(engine *e, wpd_error *err)
     tm->exact = omp_get_wtime() - t;
 
     t = omp_get_wtime();
+    wpd_progress_phase(e->opt->progress, "smooth", (uint64_t)e->plan.ntiles, "tiles");
     if (for_each_tile_by_colour(e, finish_tile, res->radius, err))
         return -1;
+    wpd_progress_end(e->opt->progress);
     tm->smooth = omp_get_wtime() - t;
 
     t = omp_get_wtime();

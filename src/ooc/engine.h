@@ -28,6 +28,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
+#include "common/progress.h"
 #include "io/cloud.h"
 #include "ooc/spill.h"
 #include "wpd/wpd.h"
@@ -38,6 +39,7 @@ typedef struct wpd_engine_options {
     const char *tmpdir;       /* directory for the private spill directory */
     int min_tiles;            /* at least this many tiles (tests, benchmarks) */
     wpd_params params;        /* the method's parameters; threads */
+    wpd_progress *progress;   /* phase progress, or NULL */
 } wpd_engine_options;
 
 typedef struct wpd_engine_timings {

@@ -18,7 +18,7 @@ size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3])
     return c[0] + (size_t)s->dim[0] * (c[1] + (size_t)s->dim[1] * c[2]);
 }
 
-static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, wpd_error *err)
+static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, wpd_progress *pg, wpd_error *err)
 {
     wpd_batch b;
     if (wpd_batch_init(&b, 65536, wpd_cloud_header(cloud, 0)->schema.record_size))
@@ -31,6 +31,7 @@ static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, wpd_error *err)
     while (rc == 0 && (got = wpd_cloud_read(cloud, &b, &file, err)) > 0) {
         wpd_bounds_add(&box, b.xyz, b.n);
         s->file_count[file] += b.n;
+        wpd_progress_add(pg, b.n);
     }
     wpd_batch_free(&b);
     if (rc || got < 0)
@@ -58,7 +59,8 @@ static void init_grid(wpd_scan *s)
     }
 }
 
-static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_error *err)
+static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_progress *pg,
+                     wpd_error *err)
 {
     wpd_ladder v;
     wpd_batch b;
@@ -78,6 +80,7 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_error 
             if (wpd_ladder_put(&v, p))
                 rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
         }
+        wpd_progress_add(pg, b.n);
     }
     if (rc == 0 && got < 0)
         rc = -1;
@@ -88,7 +91,8 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_error 
     return rc;
 }
 
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_scan *out, wpd_error *err)
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_progress *progress, wpd_scan *out,
+                 wpd_error *err)
 {
     memset(out, 0, sizeof *out);
     out->nfiles = wpd_cloud_nfiles(cloud);
@@ -96,8 +100,10 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_scan *out, wpd_error *e
     if (!out->file_count)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     double t = omp_get_wtime();
-    if (bounds_pass(cloud, out, err))
+    wpd_progress_phase(progress, "bounds", wpd_cloud_count(cloud), "points");
+    if (bounds_pass(cloud, out, progress, err))
         goto fail;
+    wpd_progress_end(progress);
     out->bounds_seconds = omp_get_wtime() - t;
     t = omp_get_wtime();
     init_grid(out);
@@ -106,8 +112,10 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_scan *out, wpd_error *e
         wpd_fail(err, WPD_E_MEMORY, "out of memory for the density grid");
         goto fail;
     }
-    if (scan_pass(cloud, out, voxel_cap, err) || wpd_cloud_rewind(cloud, err))
+    wpd_progress_phase(progress, "scan", out->count, "points");
+    if (scan_pass(cloud, out, voxel_cap, progress, err) || wpd_cloud_rewind(cloud, err))
         goto fail;
+    wpd_progress_end(progress);
     out->scan_seconds = omp_get_wtime() - t;
     return 0;
 fail:

@@ -52,7 +52,7 @@ def test_no_pair_closer_than_r_without_smoothing():
                  "lone-star_tile2.las"):
         src = data("scans", name)
         out = wpd("resample", src, "-o", "out.ply", "-n", "2%", "--no-smooth",
-                  "--force").stdout
+                  "--force", "-v").stdout
         r = radius_of(out)
         m = metrics(src, "out.ply")
         assert m["min_spacing"] >= r * (1 - 1e-9), (name, m["min_spacing"], r)
