@@ -1,0 +1,234 @@
+/* tmpdir.c - private temporary directories removed on every exit path
+ * (see tmpdir.h).
+ *
+ * The registry below is wpd's one piece of process-wide mutable state. It
+ * has to be global: a signal handler receives no argument through which a
+ * per-object list could reach it. It is a fixed array (no allocation, so
+ * the handler can walk it at any moment), slots are claimed and released
+ * under a mutex by normal code, and a slot's path is complete before its
+ * state is published, so the handler never sees half a path.
+ *
+ * Only flat directories are supported: the spill writes plain files.
+ */
+#include "ooc/tmpdir.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define MAX_DIRS 16
+#define PATH_CAP 1024
+
+enum { SLOT_FREE = 0, SLOT_CLAIMED = 1, SLOT_LIVE = 2 };
+
+static struct {
+    char path[PATH_CAP];
+    pid_t owner;                 /* a forked child leaves its parent's alone */
+    volatile sig_atomic_t state; /* SLOT_*; the handler removes SLOT_LIVE */
+} registry[MAX_DIRS];
+
+static pthread_mutex_t registry_mu = PTHREAD_MUTEX_INITIALIZER;
+static int hooks_installed;
+
+static const int cleanup_signals[] = {SIGINT, SIGTERM, SIGHUP};
+
+/* Unlinks every entry of the directory path, then removes it. Only
+ * async-signal-safe calls (open, getdents64, unlinkat, close, rmdir): it
+ * runs in the signal handler. A few passes: a thread may still be creating
+ * a file while we list. */
+static void empty_and_remove(const char *path)
+{
+    for (int pass = 0; pass < 64; pass++) {
+        int fd = open(path, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+        if (fd < 0)
+            return;
+        char buf[4096] __attribute__((aligned(8)));
+        ssize_t got;
+        while ((got = getdents64(fd, buf, sizeof buf)) > 0) {
+            for (ssize_t off = 0; off < got;) {
+                const struct dirent64 *d = (const struct dirent64 *)(buf + off);
+                off += d->d_reclen;
+                const char *nm = d->d_name;
+                if (nm[0] == '.' && (nm[1] == '\0' || (nm[1] == '.' && nm[2] == '\0')))
+                    continue;
+                if (unlinkat(fd, nm, 0) && errno == EISDIR)
+                    unlinkat(fd, nm, AT_REMOVEDIR);
+            }
+        }
+        close(fd);
+        if (rmdir(path) == 0 || errno == ENOENT)
+            return;
+    }
+}
+
+static int ours(int k)
+{
+    return registry[k].state == SLOT_LIVE && registry[k].owner == getpid();
+}
+
+static void remove_live_dirs(void)
+{
+    for (int k = 0; k < MAX_DIRS; k++)
+        if (ours(k))
+            empty_and_remove(registry[k].path);
+}
+
+/* SIGINT/SIGTERM/SIGHUP: remove the directories, then die of the signal
+ * with its default action (the re-raised signal is delivered when the
+ * handler returns and unblocks it). */
+static void on_signal(int sig)
+{
+    int saved = errno;
+    remove_live_dirs();
+    struct sigaction dfl;
+    memset(&dfl, 0, sizeof dfl);
+    dfl.sa_handler = SIG_DFL;
+    sigemptyset(&dfl.sa_mask);
+    sigaction(sig, &dfl, NULL);
+    raise(sig);
+    errno = saved;
+}
+
+static void at_exit_cleanup(void)
+{
+    pthread_mutex_lock(&registry_mu);
+    for (int k = 0; k < MAX_DIRS; k++)
+        if (ours(k)) {
+            empty_and_remove(registry[k].path);
+            registry[k].state = SLOT_FREE;
+        }
+    pthread_mutex_unlock(&registry_mu);
+}
+
+/* Installs the handlers (not over a signal the process ignores, e.g.
+ * SIGHUP under nohup) and the exit hook, once. Lock held. */
+static void install_hooks_locked(void)
+{
+    if (hooks_installed)
+        return;
+    hooks_installed = 1;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    for (size_t k = 0; k < sizeof cleanup_signals / sizeof *cleanup_signals; k++)
+        sigaddset(&sa.sa_mask, cleanup_signals[k]);
+    for (size_t k = 0; k < sizeof cleanup_signals / sizeof *cleanup_signals; k++) {
+        struct sigaction old;
+        if (sigaction(cleanup_signals[k], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+            sigaction(cleanup_signals[k], &sa, NULL);
+    }
+    atexit(at_exit_cleanup);
+}
+
+int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t outlen,
+                      wpd_error *err)
+{
+    char path[PATH_CAP];
+    int len = snprintf(path, sizeof path, "%s/%s-%ld-XXXXXX", base, prefix, (long)getpid());
+    if (len < 0 || (size_t)len >= sizeof path || (size_t)len >= outlen)
+        return wpd_fail(err, WPD_E_IO, "%s: path too long for a temporary directory", base);
+    pthread_mutex_lock(&registry_mu);
+    install_hooks_locked();
+    int slot = -1;
+    for (int k = 0; k < MAX_DIRS && slot < 0; k++)
+        if (registry[k].state == SLOT_FREE)
+            slot = k;
+    if (slot >= 0)
+        registry[slot].state = SLOT_CLAIMED;
+    pthread_mutex_unlock(&registry_mu);
+    if (slot < 0)
+        return wpd_fail(err, WPD_E_IO, "%s: more than %d temporary directories at once", base,
+                        MAX_DIRS);
+    /* Block the cleanup signals on this thread so that the directory cannot
+     * come into existence unregistered because of a signal taken here. */
+    sigset_t block, old;
+    sigemptyset(&block);
+    for (size_t k = 0; k < sizeof cleanup_signals / sizeof *cleanup_signals; k++)
+        sigaddset(&block, cleanup_signals[k]);
+    pthread_sigmask(SIG_BLOCK, &block, &old);
+    int ok = mkdtemp(path) != NULL;
+    int saved = errno;
+    if (ok) {
+        memcpy(registry[slot].path, path, (size_t)len + 1);
+        registry[slot].owner = getpid();
+        __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+    }
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    if (!ok) {
+        __atomic_store_n(&registry[slot].state, SLOT_FREE, __ATOMIC_RELEASE);
+        errno = saved;
+        return wpd_fail_errno(err, "%s: cannot create a temporary directory", base);
+    }
+    memcpy(out, path, (size_t)len + 1);
+    return 0;
+}
+
+void wpd_tmpdir_remove(const char *path)
+{
+    pthread_mutex_lock(&registry_mu);
+    for (int k = 0; k < MAX_DIRS; k++)
+        if (registry[k].state == SLOT_LIVE && strcmp(registry[k].path, path) == 0) {
+            /* Emptied before it is unregistered: a signal arriving meanwhile
+             * still finds it and finishes the job. */
+            empty_and_remove(registry[k].path);
+            registry[k].state = SLOT_FREE;
+            break;
+        }
+    pthread_mutex_unlock(&registry_mu);
+}
+
+/* The pid in name if it is "<prefix>-<pid>-XXXXXX" (6 alphanumerics, as
+ * mkdtemp makes them), else 0. */
+static long stale_pid(const char *name, const char *prefix)
+{
+    size_t pl = strlen(prefix);
+    if (strncmp(name, prefix, pl) != 0 || name[pl] != '-')
+        return 0;
+    const char *p = name + pl + 1;
+    long pid = 0;
+    int digits = 0;
+    for (; *p >= '0' && *p <= '9' && digits < 10; p++, digits++)
+        pid = pid * 10 + (*p - '0');
+    if (!digits || *p != '-' || pid <= 0)
+        return 0;
+    p++;
+    for (int k = 0; k < 6; k++)
+        if (!((p[k] >= '0' && p[k] <= '9') || (p[k] >= 'a' && p[k] <= 'z') ||
+              (p[k] >= 'A' && p[k] <= 'Z')))
+            return 0;
+    return p[6] == '\0' ? pid : 0;
+}
+
+int wpd_tmpdir_sweep_stale(const char *base, const char *prefix)
+{
+    DIR *d = opendir(base);
+    if (!d)
+        return 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        long pid = stale_pid(e->d_name, prefix);
+        if (!pid || pid == (long)getpid() || pid > INT32_MAX)
+            continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH)
+            continue; /* running, or someone else's */
+        char path[PATH_CAP];
+        struct stat st;
+        if (snprintf(path, sizeof path, "%s/%s", base, e->d_name) >= (int)sizeof path ||
+            lstat(path, &st) || !S_ISDIR(st.st_mode) || st.st_uid != getuid())
+            continue;
+        empty_and_remove(path);
+        removed += lstat(path, &st) != 0;
+    }
+    closedir(d);
+    return removed;
+}
