@@ -276,9 +276,14 @@ static void round_to_output(const double res[3], const double p[3], double out[3
  * starting position. */
 static int off_surface(const wpd_grid *surface, const double start[3], double spacing)
 {
-    uint32_t near;
-    double local = 0;
-    return nearest_with_spacing(surface, start, &near, &local) >= 0 && local > 0.5 * spacing;
+    /* A sample starts on an input point: its 7 nearest are that point and
+     * the 6 that define the local spacing there. */
+    uint32_t nb[SPACING_K + 1];
+    double d2[SPACING_K + 1], local = 0;
+    int got = wpd_knn_slots(surface, start, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
+    for (int j = 1; j < got; j++)
+        local += sqrt(d2[j]);
+    return got > 1 && local / (got - 1) > 0.5 * spacing;
 }
 
 static size_t clamp_to_surface(const wpd_grid *surface, double *pos, const double *start,
@@ -288,8 +293,11 @@ static size_t clamp_to_surface(const wpd_grid *surface, double *pos, const doubl
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : pulled)
     for (size_t o = 0; o < n; o++) {
         double *p = pos + 3 * o;
-        if (off_surface(surface, start + 3 * o, spacing)) {
-            memcpy(p, start + 3 * o, 3 * sizeof *p);
+        const double *p0 = start + 3 * o;
+        if (p[0] == p0[0] && p[1] == p0[1] && p[2] == p0[2])
+            continue; /* never moved: it is an input point */
+        if (off_surface(surface, p0, spacing)) {
+            memcpy(p, p0, 3 * sizeof *p);
             continue;
         }
         /* The position is judged as the output will store it. Pulling p
