@@ -4,6 +4,7 @@
 #include "cli/report.h"
 #include "cli/selection.h"
 #include "common/outfile.h"
+#include "common/tmpdir.h"
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "ooc/engine.h"
@@ -524,10 +525,31 @@ static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, const uint6
                                &o->write, err);
 }
 
+/* Refuses, before any work, outputs that exist (without --force) or that
+ * are inputs. */
+static int check_outputs(char **inputs, int ninputs, const resample_options *o, wpd_error *err)
+{
+    struct stat st;
+    for (int i = 0; i < (o->output ? 1 : ninputs); i++) {
+        char base[1024], path[2048];
+        snprintf(base, sizeof base, "%s", inputs[i]);
+        if (o->output)
+            snprintf(path, sizeof path, "%s", o->output);
+        else
+            snprintf(path, sizeof path, "%s/%s", o->per_input, basename(base));
+        if (wpd_path_is_one_of(path, inputs, ninputs))
+            return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", path);
+        if (!o->write.overwrite && stat(path, &st) == 0)
+            return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)",
+                            path);
+    }
+    return 0;
+}
+
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
-    if (o->output && wpd_path_is_one_of(o->output, inputs, ninputs))
-        return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", o->output);
+    if (check_outputs(inputs, ninputs, o, err))
+        return -1;
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err);
     if (!cloud)
         return -1;
@@ -584,6 +606,20 @@ done:
     return rc;
 }
 
+/* Removes what runs killed outright (SIGKILL, power loss) left behind:
+ * their spill directories and temporary outputs. Live runs' are kept. */
+static void sweep_leftovers(const resample_options *o)
+{
+    char dir[1024];
+    const char *base = spill_base(o);
+    snprintf(dir, sizeof dir, "%s", o->output ? o->output : o->per_input);
+    if (!base)
+        base = o->output ? dirname(dir) : dir;
+    wpd_tmpdir_sweep_stale(base, "wpd-spill");
+    if (o->output)
+        wpd_outfile_sweep_stale(o->output);
+}
+
 /* --skip-existing: moves the inputs that still need work to the front of
  * inputs and returns how many there are. An input needs work unless its
  * output in outdir exists and is at least as new. */
@@ -623,6 +659,7 @@ int wpd_cmd_resample(int argc, char **argv)
         return 0;
     }
     const char *target = o.output ? o.output : o.per_input;
+    sweep_leftovers(&o);
     int lock = wpd_output_lock(target, &err);
     if (lock < 0)
         return wpd_report_error("resample", &err);

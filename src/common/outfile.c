@@ -1,4 +1,5 @@
 #include "common/outfile.h"
+#include "common/tmpdir.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -85,6 +86,7 @@ int wpd_output_lock(const char *path, wpd_error *err)
         return wpd_fail(err, WPD_E_IO, "%s: being written by another wpd run (lock %s)", path,
                         lock);
     }
+    wpd_tmpdir_track_file(lock); /* a signal must not leave it behind either */
     return fd;
 }
 
@@ -95,6 +97,7 @@ void wpd_output_unlock(int fd, const char *path)
     char lock[2200];
     lock_path(path, lock, sizeof lock);
     unlink(lock);
+    wpd_tmpdir_untrack_file(lock);
     close(fd);
 }
 
@@ -114,6 +117,7 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
         f->temp_path[0] = '\0';
         return wpd_fail_errno(err, "%s: cannot create output", path);
     }
+    wpd_tmpdir_track_file(f->temp_path); /* removed if a signal stops the run */
     /* mkostemp creates 0600; give the file the mode a plain creat() would. */
     mode_t mask = umask(0);
     umask(mask);
@@ -175,6 +179,7 @@ int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
         wpd_outfile_abort(f);
         return -1;
     }
+    wpd_tmpdir_untrack_file(f->temp_path);
     f->temp_path[0] = '\0';
     return 0;
 }
@@ -184,8 +189,10 @@ void wpd_outfile_abort(wpd_outfile *f)
     if (f->fd >= 0)
         close(f->fd);
     f->fd = -1;
-    if (f->temp_path[0])
+    if (f->temp_path[0]) {
         unlink(f->temp_path);
+        wpd_tmpdir_untrack_file(f->temp_path);
+    }
     f->temp_path[0] = '\0';
 }
 

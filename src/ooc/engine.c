@@ -9,6 +9,7 @@
 #include "core/grid.h"
 #include "core/knn.h"
 #include "core/sort.h"
+#include "common/tmpdir.h"
 #include "ooc/plan.h"
 #include "ooc/scan.h"
 #include "wpd/exact.h"

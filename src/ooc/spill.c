@@ -75,7 +75,7 @@
 #include <emmintrin.h>
 #endif
 
-#include "ooc/tmpdir.h"
+#include "common/tmpdir.h"
 
 #define CHUNK_MAGIC 0x31505357u  /* "WSP1" little-endian */
 #define MAX_OPEN_FILES 64        /* tile files kept open while writing */

@@ -16,7 +16,7 @@
 #include <unistd.h>
 
 #include "ooc/spill.h"
-#include "ooc/tmpdir.h"
+#include "common/tmpdir.h"
 
 /* ---- helpers ---- */
 

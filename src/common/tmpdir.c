@@ -10,7 +10,7 @@
  *
  * Only flat directories are supported: the spill writes plain files.
  */
-#include "ooc/tmpdir.h"
+#include "common/tmpdir.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -32,6 +32,7 @@ enum { SLOT_FREE = 0, SLOT_CLAIMED = 1, SLOT_LIVE = 2 };
 static struct {
     char path[PATH_CAP];
     pid_t owner;                 /* a forked child leaves its parent's alone */
+    int is_file;                 /* a temporary output file, not a directory */
     volatile sig_atomic_t state; /* SLOT_*; the handler removes SLOT_LIVE */
 } registry[MAX_DIRS];
 
@@ -74,11 +75,19 @@ static int ours(int k)
     return registry[k].state == SLOT_LIVE && registry[k].owner == getpid();
 }
 
+static void remove_slot(int k)
+{
+    if (registry[k].is_file)
+        unlink(registry[k].path);
+    else
+        empty_and_remove(registry[k].path);
+}
+
 static void remove_live_dirs(void)
 {
     for (int k = 0; k < MAX_DIRS; k++)
         if (ours(k))
-            empty_and_remove(registry[k].path);
+            remove_slot(k);
 }
 
 /* SIGINT/SIGTERM/SIGHUP: remove the directories, then die of the signal
@@ -102,7 +111,7 @@ static void at_exit_cleanup(void)
     pthread_mutex_lock(&registry_mu);
     for (int k = 0; k < MAX_DIRS; k++)
         if (ours(k)) {
-            empty_and_remove(registry[k].path);
+            remove_slot(k);
             registry[k].state = SLOT_FREE;
         }
     pthread_mutex_unlock(&registry_mu);
@@ -160,6 +169,7 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
     if (ok) {
         memcpy(registry[slot].path, path, (size_t)len + 1);
         registry[slot].owner = getpid();
+        registry[slot].is_file = 0;
         __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
     }
     pthread_sigmask(SIG_SETMASK, &old, NULL);
@@ -231,4 +241,37 @@ int wpd_tmpdir_sweep_stale(const char *base, const char *prefix)
     }
     closedir(d);
     return removed;
+}
+
+int wpd_tmpdir_track_file(const char *path)
+{
+    size_t len = strlen(path);
+    if (len >= PATH_CAP)
+        return -1;
+    pthread_mutex_lock(&registry_mu);
+    install_hooks_locked();
+    int slot = -1;
+    for (int k = 0; k < MAX_DIRS && slot < 0; k++)
+        if (registry[k].state == SLOT_FREE)
+            slot = k;
+    if (slot >= 0) {
+        memcpy(registry[slot].path, path, len + 1);
+        registry[slot].owner = getpid();
+        registry[slot].is_file = 1;
+        __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+    }
+    pthread_mutex_unlock(&registry_mu);
+    return slot < 0 ? -1 : 0;
+}
+
+void wpd_tmpdir_untrack_file(const char *path)
+{
+    pthread_mutex_lock(&registry_mu);
+    for (int k = 0; k < MAX_DIRS; k++)
+        if (registry[k].state == SLOT_LIVE && registry[k].is_file &&
+            strcmp(registry[k].path, path) == 0) {
+            registry[k].state = SLOT_FREE;
+            break;
+        }
+    pthread_mutex_unlock(&registry_mu);
 }

@@ -26,6 +26,15 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
 /* Empties and removes a directory created above and unregisters it. */
 void wpd_tmpdir_remove(const char *path);
 
+/* Registers a temporary output file to be removed on SIGINT/SIGTERM/SIGHUP
+ * and at exit, until wpd_tmpdir_untrack_file (after its rename). Returns 0,
+ * or -1 when the registry is full (the file is then only removed by the
+ * normal error paths and by the next run's sweep). */
+int wpd_tmpdir_track_file(const char *path);
+
+/* Stops tracking path (it was renamed into place or removed). */
+void wpd_tmpdir_untrack_file(const char *path);
+
 /* Removes "<base>/<prefix>-<pid>-*" directories whose pid is no longer a
  * running process (left by a killed run). Returns how many were removed. */
 int wpd_tmpdir_sweep_stale(const char *base, const char *prefix);
