@@ -4,7 +4,7 @@
 CC      ?= gcc
 CFLAGS  ?= -O2 -g
 CFLAGS  += -std=c11 -D_GNU_SOURCE -Wall -Wextra -fopenmp -Isrc -Itools
-LDLIBS  += -lzstd -lm
+LDLIBS  += -lzstd -lpng -lm
 LDFLAGS += -fopenmp
 PREFIX  ?= /usr/local
 
@@ -17,7 +17,7 @@ TEST_SRC := $(wildcard tests/unit/*.c)
 TEST_OBJ := $(TEST_SRC:%.c=build/%.o)
 
 # Debian packages needed to build and test.
-DEB_PKGS := gcc make libzstd-dev libc6-dev python3 python3-numpy bc
+DEB_PKGS := gcc make libzstd-dev libpng-dev libc6-dev python3 python3-numpy bc
 
 .PHONY: all test demo bench install clean deps
 
