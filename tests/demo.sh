@@ -17,5 +17,7 @@ step "Measure the result against the input" \
     ./wpd metrics "$out/city.las" "$out/city_20k.las"
 step "Convert the result to PLY (x y z as double, every LAS dimension kept as a property)" \
     ./wpd convert "$out/city_20k.las" "$out/city_20k.ply"
-printf '\nDemo files are in %s/\n' "$out"
+step "Draw the scan and the result side by side, with their spacing histograms" \
+    ./wpd preview "$out/city.las" "$out/city_20k.las" -o "$out/city_before_after.png"
+printf '\nDemo files are in %s/ (look at city_before_after.png)\n' "$out"
 ls -l "$out"

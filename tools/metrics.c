@@ -351,9 +351,16 @@ static int append_batch(double **xyz, size_t *n, size_t *cap, const wpd_batch *b
 
 int wpd_metrics_load(const char *path, double **xyz, size_t *n, wpd_error *err)
 {
+    return wpd_metrics_load_many(&path, 1, xyz, n, err);
+}
+
+int wpd_metrics_load_many(const char *const *paths, int npaths, double **xyz, size_t *n,
+                          wpd_error *err)
+{
+    const char *path = paths[0];
     *xyz = NULL;
     *n = 0;
-    wpd_cloud *cloud = wpd_cloud_open(&path, 1, err);
+    wpd_cloud *cloud = wpd_cloud_open(paths, npaths, err);
     if (!cloud)
         return -1;
     wpd_batch b;

@@ -125,6 +125,10 @@ int wpd_metrics_compute(const double *orig, size_t n_orig, const double *res, si
  * set (WPD_E_INPUT for a file without finite points). */
 int wpd_metrics_load(const char *path, double **xyz, size_t *n, wpd_error *err);
 
+/* wpd_metrics_load for several files read as one cloud. */
+int wpd_metrics_load_many(const char *const *paths, int npaths, double **xyz, size_t *n,
+                          wpd_error *err);
+
 /* Writes m as one JSON object (field names above) and a newline. */
 void wpd_metrics_write_json(FILE *f, const wpd_metrics *m);
 /* Writes m as text, one metric per line, names left-aligned. */

@@ -3,6 +3,7 @@
 #include "cli/commands.h"
 #include "cli/report.h"
 #include "cli/selection.h"
+#include "metrics.h"
 #include "common/outfile.h"
 #include "common/tmpdir.h"
 #include "io/cloud.h"
@@ -57,6 +58,8 @@ static const char *usage_text =
     "                        output's directory)\n"
     "      --min-tiles N     use the tiled engine with at least N tiles\n"
     "      --report FILE     write what the run did as JSON (docs/report.md)\n"
+    "      --metrics         measure the result against the input (as wpd metrics;\n"
+    "                        loads both into memory): summary and report\n"
     "      --ascii           ascii PLY output\n"
     "      --force           replace OUT if it exists\n"
     "  -v, --verbose         progress and the summary even when not on a terminal\n"
@@ -78,6 +81,7 @@ typedef struct resample_options {
     int min_tiles;
     int skip_existing;        /* --per-input: skip inputs whose output is newer */
     int quiet, verbose;
+    int metrics;              /* quality summary (wpd metrics) of the result */
     wpd_progress progress;
     wpd_params params;
     wpd_write_options write;
@@ -140,7 +144,7 @@ static int parse_positive(const char *text, double lo, double hi, double *out)
 enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
        OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
        OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT,
-       OPT_SKIP_EXISTING };
+       OPT_SKIP_EXISTING, OPT_METRICS };
 
 static int parse_option(int c, const char *arg, resample_options *o)
 {
@@ -173,6 +177,7 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_TMPDIR: o->tmpdir = arg; return 0;
     case OPT_REPORT: o->report = arg; return 0;
     case OPT_SKIP_EXISTING: o->skip_existing = 1; return 0;
+    case OPT_METRICS: o->metrics = 1; return 0;
     case OPT_MEM: return parse_size(arg, &o->mem_bytes);
     case OPT_MIN_TILES: if (parse_positive(arg, 1, 1e6, &v)) return -1; o->min_tiles = (int)v; return 0;
     case OPT_RADIUS_EST:
@@ -202,6 +207,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"per-input", required_argument, 0, OPT_PER_INPUT}, {"mem", required_argument, 0, OPT_MEM},
         {"tmpdir", required_argument, 0, OPT_TMPDIR}, {"report", required_argument, 0, OPT_REPORT},
         {"skip-existing", no_argument, 0, OPT_SKIP_EXISTING},
+        {"metrics", no_argument, 0, OPT_METRICS},
         {"min-tiles", required_argument, 0, OPT_MIN_TILES},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
@@ -489,6 +495,29 @@ static long peak_rss_kb(void)
     return getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_maxrss : 0;
 }
 
+/* The paper's quality measures of the selection against the inputs, as
+ * the JSON `wpd metrics --json` prints, in *json (malloc'd). */
+static int measure(char **inputs, int ninputs, const wpd_selection *sel,
+                   const resample_options *o, char **json, wpd_error *err)
+{
+    double *orig = NULL;
+    size_t n_orig = 0;
+    wpd_metrics m;
+    if (wpd_metrics_load_many((const char *const *)inputs, ninputs, &orig, &n_orig, err))
+        return -1;
+    int rc = wpd_metrics_compute(orig, n_orig, sel->xyz, sel->n, o->params.threads, &m, err);
+    free(orig);
+    if (rc)
+        return -1;
+    size_t len = 0;
+    FILE *f = open_memstream(json, &len);
+    if (!f)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the metrics");
+    wpd_metrics_write_json(f, &m);
+    fclose(f);
+    return 0;
+}
+
 static void print_summary(const wpd_run_info *r, const resample_options *o)
 {
     printf("resampled %llu -> %zu points into %s\n", (unsigned long long)r->input_points,
@@ -558,6 +587,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_selection sel = {0};
     uint64_t *file_count = NULL;
     double *tile_box = NULL;
+    char *metrics_json = NULL;
     wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
                          .per_input = o->per_input, .params = &o->params};
     double t0 = omp_get_wtime();
@@ -594,14 +624,21 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
     info.peak_rss_kb = peak_rss_kb();
-    if (rc == 0 && !o->quiet && (o->verbose || isatty(STDOUT_FILENO)))
+    if (rc == 0 && o->metrics)
+        rc = measure(inputs, ninputs, &sel, o, &metrics_json, err);
+    info.metrics_json = metrics_json;
+    if (rc == 0 && !o->quiet && (o->verbose || isatty(STDOUT_FILENO))) {
         print_summary(&info, o);
+        if (metrics_json)
+            printf("  quality (wpd metrics --json): %s", metrics_json);
+    }
     if (rc == 0 && o->report)
         rc = wpd_report_write(o->report, &info, err);
 done:
     wpd_selection_free(&sel);
     free(file_count);
     free(tile_box);
+    free(metrics_json);
     wpd_cloud_close(cloud);
     return rc;
 }

@@ -1,6 +1,7 @@
 /* main.c - the wpd command: dispatch to subcommands. */
 #include "cli/commands.h"
 #include "metrics.h"
+#include "preview.h"
 #include "synth.h"
 
 #include <malloc.h>
@@ -19,6 +20,7 @@ static const command commands[] = {
     {"resample", wpd_cmd_resample, "resample to exactly N points (Weighted Poisson-disk)"},
     {"synth", wpd_synth_main, "generate a synthetic city-like LiDAR scan of any size"},
     {"metrics", wpd_metrics_main, "quality of a resampling: distances, density, spacing"},
+    {"preview", wpd_preview_main, "draw a cloud, or two side by side with spacing histograms (PNG)"},
 };
 
 static void usage(FILE *f)

@@ -100,7 +100,8 @@ static void write_body(FILE *f, const wpd_run_info *r)
             r->pulled);
     write_phases(f, r);
     write_tiles(f, r);
-    fprintf(f, "  \"peak_rss_bytes\": %lld\n}\n", (long long)r->peak_rss_kb * 1024);
+    fprintf(f, "  \"peak_rss_bytes\": %lld,\n", (long long)r->peak_rss_kb * 1024);
+    fprintf(f, "  \"metrics\": %s}\n", r->metrics_json ? r->metrics_json : "null\n");
 }
 
 int wpd_report_write(const char *path, const wpd_run_info *info, wpd_error *err)

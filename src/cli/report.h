@@ -34,6 +34,7 @@ typedef struct wpd_run_info {
     wpd_spill_stats spill;
     double t_load, t_scan, t_tile, t_radius, t_poisson, t_exact, t_smooth, t_write, t_total;
     long peak_rss_kb;
+    const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
 } wpd_run_info;
 
 /* Writes info as one JSON object to path (temporary file, then renamed).

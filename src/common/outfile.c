@@ -1,4 +1,5 @@
 #include "common/outfile.h"
+#include "common/testhook.h"
 #include "common/tmpdir.h"
 
 #include <dirent.h>
@@ -118,6 +119,7 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
         return wpd_fail_errno(err, "%s: cannot create output", path);
     }
     wpd_tmpdir_track_file(f->temp_path); /* removed if a signal stops the run */
+    wpd_test_stall("write");
     /* mkostemp creates 0600; give the file the mode a plain creat() would. */
     mode_t mask = umask(0);
     umask(mask);

@@ -9,6 +9,7 @@
 #include "core/grid.h"
 #include "core/knn.h"
 #include "core/sort.h"
+#include "common/testhook.h"
 #include "common/tmpdir.h"
 #include "ooc/plan.h"
 #include "ooc/scan.h"
@@ -245,6 +246,7 @@ static int tile_pass(engine *e, wpd_error *err)
             goto done;
         gid += b.n;
         wpd_progress_add(e->opt->progress, b.n);
+        wpd_test_stall("tile");
     }
     if (got < 0 || wpd_spill_finish(e->spill, err))
         goto done;

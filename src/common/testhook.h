@@ -1,0 +1,13 @@
+/* testhook.h - a fault-injection point for the end-to-end tests.
+ *
+ * With WPD_TEST_STALL=<name> in the environment, the process stops at the
+ * point of that name (printing "wpd: stalled at <name>" on stderr) and waits
+ * for a signal, so a test can kill it at a known moment: "tile" (the first
+ * points are spilled), "write" (the temporary output exists). Without the
+ * variable it costs one getenv per call. */
+#ifndef WPD_TESTHOOK_H
+#define WPD_TESTHOOK_H
+
+void wpd_test_stall(const char *name);
+
+#endif
