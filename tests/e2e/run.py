@@ -8,5 +8,6 @@ import harness  # noqa: E402
 import test_io  # noqa: E402
 import test_resample  # noqa: E402
 import test_engine  # noqa: E402
+import test_cli  # noqa: E402
 
-sys.exit(harness.run([test_io, test_resample, test_engine]))
+sys.exit(harness.run([test_io, test_resample, test_engine, test_cli]))

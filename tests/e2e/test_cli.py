@@ -1,0 +1,164 @@
+"""End-to-end tests of what cron jobs rely on: exit codes, no partial
+output and no spill files after errors and signals, --force,
+--skip-existing, the output lock, the JSON report."""
+import fcntl
+import json
+import os
+import re
+import resource
+import signal
+import subprocess
+import time
+
+from formats import read_las
+from harness import REPO, WPD, data, wpd
+
+NC = ("scans", "nc_raleigh_lidar_2269213.las")
+
+
+def leftovers(path="."):
+    """Spill directories, temporary outputs and locks left in path."""
+    return [f for f in os.listdir(path)
+            if f.startswith("wpd-spill-") or ".wpd-tmp-" in f or f.endswith(".wpd-lock")]
+
+
+def test_exit_codes_for_real_cases():
+    src = data("las", "pdal_simple.las")
+    assert wpd("resample", src, "-o", "ok.las", "-n", 100).returncode == 0
+    assert wpd("resample", src, "-o", "x.las", check=False).returncode == 1       # no -n
+    assert wpd("resample", src, "-o", "ok.las", "-n", 10, check=False).returncode == 1  # exists
+    bad = data("bad", "pdal_1.2-with-color-clipped.las")
+    assert wpd("resample", bad, "-o", "x.las", "-n", 10, check=False).returncode == 2
+    assert wpd("resample", "missing.las", "-o", "x.las", "-n", 10, check=False).returncode == 3
+    p = wpd("resample", data(*NC), "-o", "x.las", "-n", 100000, "--mem", "8M", check=False)
+    assert p.returncode == 4
+    assert sorted(os.listdir(".")) == ["ok.las"], os.listdir(".")
+
+
+def limit_file_size():
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
+
+
+def test_disk_full_is_an_io_error_and_leaves_nothing():
+    src = data(*NC)
+    os.makedirs("spill")
+    for extra in ([], ["--min-tiles", "4", "--tmpdir", "spill"]):
+        p = subprocess.run([WPD, "resample", src, "-o", "out.las", "-n", "20000", *extra],
+                           capture_output=True, text=True, preexec_fn=limit_file_size)
+        assert p.returncode == 3, (extra, p.returncode, p.stderr)
+        assert "disk full" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert not os.path.exists("out.las") and leftovers(".") == [] and leftovers("spill") == []
+
+
+def start_stalled(args, point):
+    env = dict(os.environ, WPD_TEST_STALL=point)
+    p = subprocess.Popen([WPD, *map(str, args)], stderr=subprocess.PIPE, text=True, env=env)
+    line = p.stderr.readline()
+    assert "stalled at " + point in line, line
+    return p
+
+
+def test_signals_in_tile_and_write_phases_leave_nothing():
+    src = data(*NC)
+    os.makedirs("spill")
+    args = ["resample", src, "-o", "out.las", "-n", 20000, "--min-tiles", 4, "--tmpdir", "spill"]
+    for point in ("tile", "write"):
+        for sig, code in ((signal.SIGTERM, -signal.SIGTERM), (signal.SIGINT, -signal.SIGINT)):
+            p = start_stalled(args, point)
+            assert leftovers(".") or leftovers("spill")  # there is something to clean up
+            p.send_signal(sig)
+            assert p.wait(timeout=30) == code
+            assert not os.path.exists("out.las"), point
+            assert leftovers(".") == [] and leftovers("spill") == [], (point, sig)
+
+
+def test_sigkill_leftovers_are_removed_by_the_next_run():
+    src = data(*NC)
+    os.makedirs("spill")
+    args = ["resample", src, "-o", "out.las", "-n", 20000, "--min-tiles", 4, "--tmpdir", "spill"]
+    for point in ("tile", "write"):
+        p = start_stalled(args, point)
+        p.kill()
+        p.wait(timeout=30)
+        assert not os.path.exists("out.las")
+        assert leftovers(".") or leftovers("spill"), point  # SIGKILL cannot clean up
+        wpd(*args, "--force", "-q")  # the next run
+        assert leftovers(".") == [] and leftovers("spill") == [], point
+        assert read_las("out.las")["count"] == 20000
+        os.remove("out.las")
+
+
+def test_force_replaces_and_output_cannot_be_an_input():
+    src = data("las", "pdal_simple.las")
+    wpd("resample", src, "-o", "out.las", "-n", 100)
+    p = wpd("resample", src, "-o", "out.las", "-n", 50, check=False)
+    assert p.returncode == 1 and "--force" in p.stderr
+    assert read_las("out.las")["count"] == 100
+    wpd("resample", src, "-o", "out.las", "-n", 50, "--force")
+    assert read_las("out.las")["count"] == 50
+    p = wpd("resample", "out.las", "-o", "out.las", "-n", 10, "--force", check=False)
+    assert p.returncode == 1 and "also an input" in p.stderr
+
+
+def test_lock_keeps_two_runs_apart():
+    src = data("las", "pdal_simple.las")
+    with open(".out.las.wpd-lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        p = wpd("resample", src, "-o", "out.las", "-n", 100, check=False)
+        assert p.returncode == 3 and "another wpd run" in p.stderr, p.stderr
+        assert not os.path.exists("out.las")
+    wpd("resample", src, "-o", "out.las", "-n", 100)  # lock released: runs
+    assert read_las("out.las")["count"] == 100 and leftovers(".") == []
+
+
+def test_skip_existing_does_only_new_work():
+    tiles = [data("scans", "lone-star_tile%d.las" % i) for i in range(1, 5)]
+    os.makedirs("in")
+    for t in tiles[:2]:
+        os.symlink(t, os.path.join("in", os.path.basename(t)))
+    os.makedirs("out")
+    run = ["resample", "--per-input", "out", "-n", "5%", "--skip-existing", "-v"]
+    wpd(*run, *sorted(os.path.join("in", f) for f in os.listdir("in")))
+    first = {f: os.stat(os.path.join("out", f)).st_mtime_ns for f in os.listdir("out")}
+    assert len(first) == 2
+    p = wpd(*run, *sorted(os.path.join("in", f) for f in os.listdir("in")))
+    assert "nothing to do" in p.stdout
+    for t in tiles[2:]:  # the folder grows
+        os.symlink(t, os.path.join("in", os.path.basename(t)))
+    time.sleep(0.01)
+    wpd(*run, *sorted(os.path.join("in", f) for f in os.listdir("in")))
+    after = {f: os.stat(os.path.join("out", f)).st_mtime_ns for f in os.listdir("out")}
+    assert len(after) == 4
+    assert all(after[f] == first[f] for f in first), "old outputs were redone"
+
+
+def documented_report_fields():
+    with open(os.path.join(REPO, "docs", "report.md")) as f:
+        return re.findall(r"^\| `(\w+)` \|", f.read(), re.M)
+
+
+def test_report_is_valid_json_with_the_documented_fields():
+    fields = documented_report_fields()
+    assert len(fields) >= 20, fields
+    for extra in ([], ["--min-tiles", 4]):
+        wpd("resample", data(*NC), "-o", "out.las", "-n", 20000, "--report", "r.json",
+            "--metrics", "--force", "-q", *extra)
+        with open("r.json") as f:
+            r = json.load(f)
+        assert set(fields) <= set(r), set(fields) - set(r)
+        assert r["output_points"] == 20000 and r["metrics"]["resampled_points"] == 20000
+        assert r["peak_rss_bytes"] > 0 and r["seconds"]["total"] > 0
+        if extra:
+            assert r["tiles"]["count"] >= 4 and r["spill"]["disk_bytes"] > 0
+            assert len(r["tiles"]["boxes"]) == r["tiles"]["count"]
+
+
+def test_progress_only_when_asked():
+    src = data("las", "pdal_autzen_trim.las")
+    p = wpd("resample", src, "-o", "a.las", "-n", 1000)
+    assert p.stderr == "" and p.stdout == ""  # not a terminal: silent
+    p = wpd("resample", src, "-o", "b.las", "-n", 1000, "--verbose")
+    assert "load" in p.stderr and "resampled" in p.stdout
+    p = wpd("resample", src, "-o", "c.las", "-n", 1000, "--verbose", "--quiet")
+    assert p.stderr == "" and p.stdout == ""
