@@ -37,4 +37,7 @@ for n in $sizes; do
     run "city_${n}_t2" 2 "$dir/city_$n.las" $((n / 100))
 done
 big=$(echo "$sizes" | awk '{print $NF}')
+small=$(echo "$sizes" | awk '{print $1}')
+# Memory against input size: the same n from the small cloud.
+run "city_${small}_to_$((big / 100))" 2 "$dir/city_$small.las" $((big / 100))
 run "city_${big}_t1" 1 "$dir/city_$big.las" $((big / 100))

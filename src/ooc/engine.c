@@ -752,9 +752,11 @@ static int open_spill(engine *e, wpd_error *err)
     wpd_spill_options so;
     wpd_spill_default_options(&so);
     so.threads = e->threads;
+    /* The whole write-buffer budget, whatever the number of tiles: larger
+     * chunks compress better, and the peak does not depend on the input's
+     * size (a small cloud in few tiles uses as much as a large one). */
     size_t per_tile = SPILL_BUFFERS_MAX / (size_t)e->plan.ntiles;
-    if (so.buffer_bytes > per_tile)
-        so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile;
+    so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
     e->spill = wpd_spill_create(e->opt->tmpdir, e->plan.ntiles, e->record_size, &so, err);
     return e->spill ? 0 : -1;
 }
