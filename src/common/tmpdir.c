@@ -138,13 +138,10 @@ static void install_hooks_locked(void)
     atexit(at_exit_cleanup);
 }
 
-int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t outlen,
-                      wpd_error *err)
+/* Claims a free registry slot (installing the hooks on first use).
+ * Returns its index, or -1 when all are taken. */
+static int claim_slot(void)
 {
-    char path[PATH_CAP];
-    int len = snprintf(path, sizeof path, "%s/%s-%ld-XXXXXX", base, prefix, (long)getpid());
-    if (len < 0 || (size_t)len >= sizeof path || (size_t)len >= outlen)
-        return wpd_fail(err, WPD_E_IO, "%s: path too long for a temporary directory", base);
     pthread_mutex_lock(&registry_mu);
     install_hooks_locked();
     int slot = -1;
@@ -154,6 +151,17 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
     if (slot >= 0)
         registry[slot].state = SLOT_CLAIMED;
     pthread_mutex_unlock(&registry_mu);
+    return slot;
+}
+
+int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t outlen,
+                      wpd_error *err)
+{
+    char path[PATH_CAP];
+    int len = snprintf(path, sizeof path, "%s/%s-%ld-XXXXXX", base, prefix, (long)getpid());
+    if (len < 0 || (size_t)len >= sizeof path || (size_t)len >= outlen)
+        return wpd_fail(err, WPD_E_IO, "%s: path too long for a temporary directory", base);
+    int slot = claim_slot();
     if (slot < 0)
         return wpd_fail(err, WPD_E_IO, "%s: more than %d temporary directories at once", base,
                         MAX_DIRS);
@@ -246,22 +254,14 @@ int wpd_tmpdir_sweep_stale(const char *base, const char *prefix)
 int wpd_tmpdir_track_file(const char *path)
 {
     size_t len = strlen(path);
-    if (len >= PATH_CAP)
+    int slot = len < PATH_CAP ? claim_slot() : -1;
+    if (slot < 0)
         return -1;
-    pthread_mutex_lock(&registry_mu);
-    install_hooks_locked();
-    int slot = -1;
-    for (int k = 0; k < MAX_DIRS && slot < 0; k++)
-        if (registry[k].state == SLOT_FREE)
-            slot = k;
-    if (slot >= 0) {
-        memcpy(registry[slot].path, path, len + 1);
-        registry[slot].owner = getpid();
-        registry[slot].is_file = 1;
-        __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
-    }
-    pthread_mutex_unlock(&registry_mu);
-    return slot < 0 ? -1 : 0;
+    memcpy(registry[slot].path, path, len + 1);
+    registry[slot].owner = getpid();
+    registry[slot].is_file = 1;
+    __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+    return 0;
 }
 
 void wpd_tmpdir_untrack_file(const char *path)
