@@ -19,5 +19,5 @@ for n in 10000 100000; do
         limit=$([ "$n" = 10000 ] && echo 0.6 || echo 1.4)
         printf '%-8s %-8s %10.3f %10s\n' "$n" "$t" "$s" "$([ "$t" = 2 ] && echo "$limit" || echo -)"
     done
-    ./wpd resample "$src" -o "$out/nc_$n.las" -n "$n" --threads 2 --force | sed 's/^/    /'
+    ./wpd resample "$src" -o "$out/nc_$n.las" -n "$n" --threads 2 --force -v 2>/dev/null | sed 's/^/    /'
 done

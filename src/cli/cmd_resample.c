@@ -261,11 +261,11 @@ static size_t default_mem(void)
 }
 
 /* Memory the one-block path needs for n points of record_size bytes:
- * records and coordinates, the Poisson and surface grids (measured: 273 MB
+ * records and coordinates, the Poisson and surface grids (measured: 380 MB
  * peak for the 2.27 M-point NC Raleigh scan to 100 K, 38-byte records). */
 static size_t in_memory_bytes(uint64_t n, uint32_t record_size)
 {
-    return (size_t)n * (record_size + 110) + ((size_t)32 << 20);
+    return (size_t)n * (record_size + 140) + ((size_t)32 << 20);
 }
 
 /* The whole cloud in memory: records and coordinates relative to origin. */
