@@ -31,8 +31,9 @@ enum {
 size_t wpd_engine_bytes_per_tile_point(uint32_t record_size)
 {
     /* coordinates, index and halo flag 33, Poisson scratch (priority,
-     * order, grid copy) ~80, surface grid ~45, the record */
-    return 160 + record_size;
+     * order, grid copy) ~80, surface grid ~45; records are not in the tiles */
+    (void)record_size;
+    return 160;
 }
 
 size_t wpd_engine_bytes_per_sample(uint32_t record_size)
@@ -59,7 +60,6 @@ typedef struct tile_samples {
     size_t n;
     uint64_t *gid;            /* ascending */
     double *xyz;              /* frame coordinates */
-    uint8_t *records;         /* filled by the last pass */
 } tile_samples;
 
 typedef struct engine {
@@ -79,7 +79,6 @@ static void store_clear(engine *e)
     for (int t = 0; e->store && t < e->plan.ntiles; t++) {
         free(e->store[t].gid);
         free(e->store[t].xyz);
-        free(e->store[t].records);
         memset(&e->store[t], 0, sizeof e->store[t]);
     }
 }
@@ -112,17 +111,17 @@ typedef struct routing {
     size_t *start;            /* [ntiles + 1] */
     uint64_t *gid;            /* gathered columns of one tile group */
     double *xyz;
-    uint8_t *hflag, *records;
+    uint8_t *hflag;
 } routing;
 
 static void routing_free(routing *r)
 {
     free(r->tile); free(r->point); free(r->halo); free(r->order); free(r->start);
-    free(r->gid); free(r->xyz); free(r->hflag); free(r->records);
+    free(r->gid); free(r->xyz); free(r->hflag);
     memset(r, 0, sizeof *r);
 }
 
-static int routing_reserve(routing *r, size_t cap, size_t batch, int ntiles, uint32_t rs)
+static int routing_reserve(routing *r, size_t cap, size_t batch, int ntiles)
 {
     if (cap <= r->cap)
         return 0;
@@ -138,10 +137,9 @@ static int routing_reserve(routing *r, size_t cap, size_t batch, int ntiles, uin
         r->gid = malloc(batch * sizeof *r->gid);
         r->xyz = malloc(3 * batch * sizeof *r->xyz);
         r->hflag = malloc(batch);
-        r->records = malloc(batch * rs);
     }
     return r->tile && r->point && r->halo && r->order && r->start && r->gid && r->xyz &&
-                   r->hflag && r->records
+                   r->hflag
                ? 0
                : -1;
 }
@@ -193,10 +191,9 @@ static void group_by_tile(routing *r, int ntiles)
     free(fill);
 }
 
-static int append_groups(engine *e, routing *r, const wpd_batch *b, const double *fxyz,
-                         uint64_t first_gid, wpd_error *err)
+static int append_groups(engine *e, routing *r, const double *fxyz, uint64_t first_gid,
+                         wpd_error *err)
 {
-    uint32_t rs = e->record_size;
     group_by_tile(r, e->plan.ntiles);
     for (int t = 0; t < e->plan.ntiles; t++) {
         size_t m = 0;
@@ -205,9 +202,8 @@ static int append_groups(engine *e, routing *r, const wpd_batch *b, const double
             r->gid[m] = first_gid + i;
             memcpy(r->xyz + 3 * m, fxyz + 3 * i, 3 * sizeof *r->xyz);
             r->hflag[m] = r->halo[entry];
-            memcpy(r->records + m * rs, b->records + i * rs, rs);
         }
-        if (m && wpd_spill_append(e->spill, t, r->gid, r->xyz, r->hflag, r->records, m, err))
+        if (m && wpd_spill_append(e->spill, t, r->gid, r->xyz, r->hflag, NULL, m, err))
             return -1;
     }
     return 0;
@@ -225,7 +221,7 @@ static int tile_pass(engine *e, wpd_error *err)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
     }
     /* Halo copies: a point lands in at most a few tiles; grow on demand. */
-    if (routing_reserve(&r, 2 * BATCH, BATCH, e->plan.ntiles, e->record_size)) {
+    if (routing_reserve(&r, 2 * BATCH, BATCH, e->plan.ntiles)) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
         goto done;
     }
@@ -238,11 +234,11 @@ static int tile_pass(engine *e, wpd_error *err)
             for (int a = 0; a < 3; a++)
                 fxyz[3 * i + a] = b.xyz[3 * i + a] - e->scan.origin[a];
         while (route_batch(e, fxyz, b.n, &r))
-            if (routing_reserve(&r, 2 * r.cap, BATCH, e->plan.ntiles, e->record_size)) {
+            if (routing_reserve(&r, 2 * r.cap, BATCH, e->plan.ntiles)) {
                 wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
                 goto done;
             }
-        if (append_groups(e, &r, &b, fxyz, gid, err))
+        if (append_groups(e, &r, fxyz, gid, err))
             goto done;
         gid += b.n;
         wpd_progress_add(e->opt->progress, b.n);
@@ -539,26 +535,6 @@ done:
 
 /* ------------------------------------------------------------------ smoothing and records */
 
-/* Copies the records of t's samples out of its tile data: both are in
- * ascending global index order. */
-static int pick_records(engine *e, int t, const wpd_tile_data *d)
-{
-    tile_samples *s = &e->store[t];
-    uint32_t rs = e->record_size;
-    s->records = malloc((s->n ? s->n : 1) * rs);
-    if (!s->records)
-        return -1;
-    size_t j = 0;
-    for (size_t i = 0; i < s->n; i++) {
-        while (j < d->n && (d->gid[j] < s->gid[i] || d->halo[j]))
-            j++;
-        if (j == d->n)
-            return -1;
-        memcpy(s->records + i * rs, d->records + j * rs, rs);
-    }
-    return 0;
-}
-
 static int smooth_samples(engine *e, int t, const wpd_tile_data *d, wpd_error *err)
 {
     const wpd_params *p = &e->opt->params;
@@ -600,40 +576,35 @@ static int finish_tile(engine *e, int t, double r, wpd_error *err)
     (void)r;
     if (e->store[t].n == 0)
         return 0;
-    wpd_tile_data d;
-    if (wpd_spill_read(e->spill, t, 1, &d, err))
-        return -1;
-    int rc = pick_records(e, t, &d)
-                 ? wpd_fail(err, WPD_E_IO, "tile %d: a sample's record is missing from the spill", t)
-                 : 0;
     const wpd_params *p = &e->opt->params;
-    if (rc == 0 && p->smooth && p->iterations > 0)
-        rc = smooth_samples(e, t, &d, err);
+    if (!p->smooth || p->iterations <= 0)
+        return 0;
+    wpd_tile_data d;
+    if (wpd_spill_read(e->spill, t, 0, &d, err))
+        return -1;
+    int rc = smooth_samples(e, t, &d, err);
     wpd_tile_data_free(&d);
     return rc;
 }
 
-/* n >= the input: every point is kept as it is (records picked up here). */
+/* n >= the input: every point is kept as it is. */
 static int take_all_tile(engine *e, int t, double r, wpd_error *err)
 {
     (void)r;
     wpd_tile_data d;
-    if (wpd_spill_read(e->spill, t, 1, &d, err))
+    if (wpd_spill_read(e->spill, t, 0, &d, err))
         return -1;
     tile_samples *s = &e->store[t];
-    uint32_t rs = e->record_size;
     s->gid = malloc((d.n ? d.n : 1) * sizeof *s->gid);
     s->xyz = malloc((d.n ? d.n : 1) * 3 * sizeof *s->xyz);
-    s->records = malloc((d.n ? d.n : 1) * rs);
     int rc = 0;
-    if (!s->gid || !s->xyz || !s->records)
+    if (!s->gid || !s->xyz)
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
     for (size_t i = 0; rc == 0 && i < d.n; i++) {
         if (d.halo[i])
             continue;
         s->gid[s->n] = d.gid[i];
         memcpy(s->xyz + 3 * s->n, d.xyz + 3 * i, 3 * sizeof *s->xyz);
-        memcpy(s->records + s->n * rs, d.records + i * rs, rs);
         s->n++;
     }
     wpd_tile_data_free(&d);
@@ -645,16 +616,14 @@ static int take_all_tile(engine *e, int t, double r, wpd_error *err)
 static int merge(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
-    size_t n = store_count(e), rs = e->record_size, m = n ? n : 1;
+    size_t n = store_count(e), m = n ? n : 1;
     uint64_t *key = malloc(m * sizeof *key), *tk = malloc(m * sizeof *tk);
     uint32_t *val = malloc(m * sizeof *val), *tv = malloc(m * sizeof *tv);
     uint32_t *tile_of = malloc(m * sizeof *tile_of), *local = malloc(m * sizeof *local);
     res->gid = malloc(m * sizeof *res->gid);
     res->xyz = malloc(m * 3 * sizeof *res->xyz);
-    res->records = malloc(m * rs);
     int rc = 0;
-    if (!key || !tk || !val || !tv || !tile_of || !local || !res->gid || !res->xyz ||
-        !res->records) {
+    if (!key || !tk || !val || !tv || !tile_of || !local || !res->gid || !res->xyz) {
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", n);
         goto done;
     }
@@ -674,7 +643,6 @@ static int merge(engine *e, wpd_error *err)
         res->gid[j] = key[j];
         for (int a = 0; a < 3; a++)
             res->xyz[3 * j + a] = s->xyz[3 * i + a] + e->scan.origin[a];
-        memcpy(res->records + j * rs, s->records + i * rs, rs);
     }
     res->count = n;
 done:
@@ -684,6 +652,36 @@ done:
     free(tv);
     free(tile_of);
     free(local);
+    return rc;
+}
+
+/* The records of the samples, from a last streaming pass over the inputs:
+ * the samples are sorted by global index, which is the reading order. The
+ * tiles hold coordinates only - the records, half the spilled bytes, are
+ * needed for the kept 1 % alone (docs/engine.md has the figures). */
+static int gather_records(engine *e, wpd_error *err)
+{
+    wpd_engine_result *res = e->res;
+    size_t rs = e->record_size;
+    wpd_batch b;
+    res->records = malloc((res->count ? res->count : 1) * rs);
+    if (!res->records || wpd_batch_init(&b, 65536, e->record_size))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu records", res->count);
+    uint64_t first = 0;
+    size_t next = 0;
+    long got;
+    int rc = wpd_cloud_rewind(e->cloud, err);
+    while (rc == 0 && next < res->count && (got = wpd_cloud_read(e->cloud, &b, NULL, err)) > 0) {
+        for (; next < res->count && res->gid[next] < first + b.n; next++)
+            memcpy(res->records + next * rs, b.records + (res->gid[next] - first) * rs, rs);
+        first += b.n;
+        wpd_progress_add(e->opt->progress, b.n);
+    }
+    if (rc == 0 && next < res->count)
+        rc = got < 0 ? -1
+                     : wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                                wpd_cloud_header(e->cloud, 0)->path);
+    wpd_batch_free(&b);
     return rc;
 }
 
@@ -757,7 +755,7 @@ static int open_spill(engine *e, wpd_error *err)
      * size (a small cloud in few tiles uses as much as a large one). */
     size_t per_tile = SPILL_BUFFERS_MAX / (size_t)e->plan.ntiles;
     so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
-    e->spill = wpd_spill_create(e->opt->tmpdir, e->plan.ntiles, e->record_size, &so, err);
+    e->spill = wpd_spill_create(e->opt->tmpdir, e->plan.ntiles, 0, &so, err);
     return e->spill ? 0 : -1;
 }
 
@@ -802,9 +800,9 @@ static int run_phases(engine *e, wpd_error *err)
 
     t = omp_get_wtime();
     if (e->opt->target >= e->scan.count) {
-        if (for_each_tile_by_colour(e, take_all_tile, 0, err))
+        if (for_each_tile_by_colour(e, take_all_tile, 0, err) || merge(e, err))
             return -1;
-        return merge(e, err);
+        return gather_records(e, err);
     }
     if (refine_radius(e, res->radius, err))
         return -1;
@@ -824,8 +822,10 @@ static int run_phases(engine *e, wpd_error *err)
     tm->smooth = omp_get_wtime() - t;
 
     t = omp_get_wtime();
-    if (merge(e, err))
+    wpd_progress_phase(e->opt->progress, "records", e->scan.count, "points");
+    if (merge(e, err) || gather_records(e, err))
         return -1;
+    wpd_progress_end(e->opt->progress);
     tm->merge = omp_get_wtime() - t;
     return 0;
 }
