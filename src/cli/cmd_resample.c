@@ -362,12 +362,11 @@ static int check_outputs(char **inputs, int ninputs, const resample_options *o, 
 {
     struct stat st;
     for (int i = 0; i < (o->output ? 1 : ninputs); i++) {
-        char base[1024], path[2048];
-        snprintf(base, sizeof base, "%s", inputs[i]);
+        char path[2048];
         if (o->output)
             snprintf(path, sizeof path, "%s", o->output);
         else
-            snprintf(path, sizeof path, "%s/%s", o->per_input, basename(base));
+            wpd_per_input_path(o->per_input, inputs[i], path, sizeof path);
         if (wpd_path_is_one_of(path, inputs, ninputs))
             return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", path);
         if (!o->write.overwrite && stat(path, &st) == 0)
@@ -469,9 +468,8 @@ static int drop_up_to_date(char **inputs, int n, const char *outdir)
 {
     int kept = 0;
     for (int i = 0; i < n; i++) {
-        char base[1024], out[2048];
-        snprintf(base, sizeof base, "%s", inputs[i]);
-        snprintf(out, sizeof out, "%s/%s", outdir, basename(base));
+        char out[2048];
+        wpd_per_input_path(outdir, inputs[i], out, sizeof out);
         struct stat si, so;
         int fresh = stat(inputs[i], &si) == 0 && stat(out, &so) == 0 &&
                     (so.st_mtim.tv_sec > si.st_mtim.tv_sec ||

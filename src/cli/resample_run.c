@@ -6,7 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/grid.h"
 #include "wpd/ladder.h"
 
 /* Memory the one-block path needs for n points of record_size bytes:
@@ -24,7 +23,8 @@ typedef struct loaded_cloud {
     uint8_t *records;
     double *xyz;
     uint64_t *gid;
-    double origin[3];
+    double origin[3];         /* minimum corner of the points */
+    double extent[3];         /* size of their bounding box */
 } loaded_cloud;
 
 static void loaded_free(loaded_cloud *c)
@@ -65,8 +65,10 @@ static int load_cloud(wpd_cloud *cloud, loaded_cloud *out, wpd_progress *pg, wpd
     wpd_bounds bounds;
     wpd_bounds_reset(&bounds);
     wpd_bounds_add(&bounds, out->xyz, out->n);
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 3; k++) {
         out->origin[k] = out->n ? bounds.min[k] : 0.0;
+        out->extent[k] = out->n ? bounds.max[k] - bounds.min[k] : 0.0;
+    }
     for (size_t i = 0; i < out->n; i++) {
         out->gid[i] = i;
         for (int k = 0; k < 3; k++)
@@ -92,11 +94,8 @@ int wpd_run_in_memory(wpd_cloud *cloud, uint64_t target, const wpd_params *param
     /* The multiscale radius as the out-of-core scan computes it, so that a
      * cloud gives the same samples whether it fits --mem or is tiled. */
     if (params.radius_method == WPD_RADIUS_MULTISCALE && target < c.n) {
-        double t = omp_get_wtime(), lo[3], hi[3], extent[3];
-        wpd_point_bounds(c.xyz, NULL, c.n, lo, hi, params.threads);
-        for (int k = 0; k < 3; k++)
-            extent[k] = hi[k] - lo[k];
-        params.radius = wpd_ladder_radius(c.xyz, c.n, extent, target, params.density);
+        double t = omp_get_wtime();
+        params.radius = wpd_ladder_radius(c.xyz, c.n, c.extent, target, params.density);
         if (params.radius < 0) {
             wpd_fail(err, WPD_E_MEMORY, "out of memory for the radius estimate");
             goto done;

@@ -84,6 +84,14 @@ done:
     return rc;
 }
 
+const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size)
+{
+    char base[1024];
+    snprintf(base, sizeof base, "%s", input);
+    snprintf(buf, size, "%s/%s", outdir, basename(base));
+    return buf;
+}
+
 int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
                                   const uint64_t *file_count, const char *outdir,
                                   const wpd_write_options *opt, wpd_error *err)
@@ -96,9 +104,8 @@ int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *clo
         size_t count = 0;
         while (first + count < sel->n && sel->gid[first + count] < file_end)
             count++;
-        char base[1024], path[2048];
-        snprintf(base, sizeof base, "%s", in->path);
-        snprintf(path, sizeof path, "%s/%s", outdir, basename(base));
+        char path[2048];
+        wpd_per_input_path(outdir, in->path, path, sizeof path);
         if (wpd_selection_write(sel, first, count, in, path, opt, err))
             return -1;
         first += count;

@@ -28,6 +28,9 @@ int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
                         const wpd_header *in, const char *path, const wpd_write_options *opt,
                         wpd_error *err);
 
+/* The --per-input output of input: "<outdir>/<input's file name>", in buf. */
+const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size);
+
 /* Writes one output per input file into outdir (same file name, same
  * format as the input): the points of sel whose global index falls in that
  * file (file_count[i] finite points each, in order). Files that receive no
