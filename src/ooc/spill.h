@@ -3,16 +3,16 @@
  * The tiler appends points to tiles in any order; each tile's points are
  * buffered and written as compressed chunks to a file of its own inside a
  * private spill directory. A tile is later read back whole, in the order
- * its points were appended, either its coordinates only (the Poisson passes
- * need nothing else) or its coordinates and full records (the last pass,
- * which needs the attributes of the selected points). Memory: one buffer
+ * its points were appended, either its coordinates only or its coordinates
+ * and records. (The engine creates its spill with record_size 0: it reads
+ * the kept points' records from the inputs instead.) Memory: one buffer
  * per tile (buffer_bytes) while writing; reading allocates only what the
  * caller asks for.
  *
  * Every point carries: its global index (uint64, increasing within a tile
  * because the tiler appends in input order), x y z (double, frame
  * coordinates), a halo flag (1: the point belongs to a neighbouring tile
- * and is only context here) and its record (record_size bytes).
+ * and is only context here) and its record (record_size bytes, may be 0).
  */
 #ifndef WPD_SPILL_H
 #define WPD_SPILL_H
