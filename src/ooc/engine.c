@@ -176,25 +176,30 @@ static int route_batch(const engine *e, const double *fxyz, size_t n, routing *r
     return 0;
 }
 
-/* Stable counting sort of the entries by tile. */
-static void group_by_tile(routing *r, int ntiles)
+/* Stable counting sort of the entries by tile. Returns 0, or -1 when out
+ * of memory. */
+static int group_by_tile(routing *r, int ntiles)
 {
+    size_t *fill = malloc((size_t)ntiles * sizeof *fill);
+    if (!fill)
+        return -1;
     memset(r->start, 0, ((size_t)ntiles + 1) * sizeof *r->start);
     for (size_t i = 0; i < r->n; i++)
         r->start[r->tile[i] + 1]++;
     for (int t = 0; t < ntiles; t++)
         r->start[t + 1] += r->start[t];
-    size_t *fill = malloc((size_t)ntiles * sizeof *fill);
     memcpy(fill, r->start, (size_t)ntiles * sizeof *fill);
     for (size_t i = 0; i < r->n; i++)
         r->order[fill[r->tile[i]]++] = (uint32_t)i;
     free(fill);
+    return 0;
 }
 
 static int append_groups(engine *e, routing *r, const double *fxyz, uint64_t first_gid,
                          wpd_error *err)
 {
-    group_by_tile(r, e->plan.ntiles);
+    if (group_by_tile(r, e->plan.ntiles))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
     for (int t = 0; t < e->plan.ntiles; t++) {
         size_t m = 0;
         for (size_t k = r->start[t]; k < r->start[t + 1]; k++, m++) {

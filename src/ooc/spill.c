@@ -71,6 +71,7 @@
 #include <time.h>
 #include <unistd.h>
 #include <zstd.h>
+#include <zstd_errors.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -932,8 +933,11 @@ static void run_job(wpd_spill *s, codec *c, const job *j)
     s->stats.compress_seconds += t1 - t0;
     if (ZSTD_isError(cz) || ZSTD_isError(rz)) {
         wpd_error e;
-        wpd_fail(&e, WPD_E_IO, "%s: zstd compression failed: %s", s->dir,
-                 ZSTD_getErrorName(ZSTD_isError(cz) ? cz : rz));
+        size_t why = ZSTD_isError(cz) ? cz : rz;
+        /* zstd allocates its workspace on the first compression. */
+        wpd_fail(&e, ZSTD_getErrorCode(why) == ZSTD_error_memory_allocation ? WPD_E_MEMORY
+                                                                           : WPD_E_IO,
+                 "%s: zstd compression failed: %s", s->dir, ZSTD_getErrorName(why));
         set_failed_locked(s, &e);
     }
     pthread_mutex_unlock(&s->mu);
@@ -1176,9 +1180,17 @@ int wpd_spill_finish(wpd_spill *s, wpd_error *err)
 {
     if (s->finished)
         return s->failed ? report_failure(s, err) : 0;
-    for (int t = 0; t < s->ntiles && !__atomic_load_n(&s->failed, __ATOMIC_ACQUIRE); t++)
-        if (s->tiles[t].fill && submit(s, t, 0, err))
+    for (int t = 0; t < s->ntiles && !__atomic_load_n(&s->failed, __ATOMIC_ACQUIRE); t++) {
+        wpd_error e;
+        if (s->tiles[t].fill && submit(s, t, 0, &e)) {
+            /* A failure of submit itself (no memory for the index) must
+             * fail the spill too, or the return below would say success. */
+            pthread_mutex_lock(&s->mu);
+            set_failed_locked(s, &e);
+            pthread_mutex_unlock(&s->mu);
             break;
+        }
+    }
     pthread_mutex_lock(&s->mu);
     while (s->in_flight)
         pthread_cond_wait(&s->cv_idle, &s->mu);
