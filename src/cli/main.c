@@ -5,8 +5,11 @@
 #include "synth.h"
 
 #include <malloc.h>
+#include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 typedef struct command {
     const char *name;
@@ -33,7 +36,35 @@ static void usage(FILE *f)
                "4 memory budget too small or out of memory.\n");
 }
 
+/* Set when a command returns to main. An exit() that happens before that
+ * comes from a runtime library giving up: libgomp calls exit(1) when it
+ * cannot allocate a thread team or create a thread, which would read as a
+ * usage error. The exit hook turns it into the memory exit code. */
+static volatile int returned_to_main;
+
+static void library_exit_is_a_memory_error(void)
+{
+    if (!returned_to_main)
+        _exit(WPD_E_MEMORY);
+}
+
+static int dispatch(int argc, char **argv);
+
 int main(int argc, char **argv)
+{
+    /* Registered first so it runs last, after the hooks that remove
+     * temporary files and spill directories. */
+    atexit(library_exit_is_a_memory_error);
+    /* A write past RLIMIT_FSIZE must fail with EFBIG and be reported like a
+     * full disk (exit 3, outputs removed), not kill the process with
+     * SIGXFSZ before it can clean up. */
+    signal(SIGXFSZ, SIG_IGN);
+    int rc = dispatch(argc, argv);
+    returned_to_main = 1;
+    return rc;
+}
+
+static int dispatch(int argc, char **argv)
 {
     /* The pipeline allocates and frees tile-sized arrays over and over; with
      * glibc's defaults each one is a fresh mmap whose pages are faulted in
