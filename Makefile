@@ -74,3 +74,86 @@ install: wpd
 
 clean:
 	rm -rf build wpd
+
+# ---- Hardening: fuzzing and sanitizer builds (docs/hardening.md) ----------
+# make fuzz [FUZZ_RUNS=N]  libFuzzer targets for the PLY and LAS readers, one
+#                          after the other on one core, seeded from the data
+# make fuzz-smoke          the same for FUZZ_SMOKE_RUNS executions (CI)
+# make test-asan           the whole suite against ASan+UBSan builds
+# Separate build trees (build/fuzz, build/asan): never mixed with build/.
+
+FUZZ_CC         ?= clang
+FUZZ_DIR        := build/fuzz
+FUZZ_RUNS       ?= 10000000
+FUZZ_SMOKE_RUNS ?= 20000
+FUZZ_MAX_LEN    ?= 65536
+FUZZ_DATA       ?= $(or $(WPD_TEST_DATA),../shared/data)
+FUZZ_DEB_PKGS   := clang libclang-rt-14-dev python3 bc
+FUZZ_SAN        := -fsanitize=address,undefined -fno-sanitize-recover=undefined
+FUZZ_CFLAGS     := -O1 -g -fno-omit-frame-pointer -std=c11 -D_GNU_SOURCE -Wall -Wextra \
+                   -Isrc $(FUZZ_SAN)
+# Only what the readers need, compiled without OpenMP (the readers are
+# serial; clang's -fopenmp would need libomp-dev for nothing).
+FUZZ_LIB_SRC    := src/io/reader.c src/io/las_read.c src/io/ply_read.c src/io/schema.c \
+                   src/io/batch.c src/common/error.c
+FUZZ_LIB_OBJ    := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/%.o)
+FUZZ_TARGETS    := $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/fuzz_las
+
+ASAN_DIR        := build/asan
+ASAN_SAN        := -fsanitize=address,undefined -fno-omit-frame-pointer \
+                   -fno-sanitize-recover=undefined
+ASAN_LIB_OBJ    := $(LIB_SRC:%.c=$(ASAN_DIR)/%.o)
+ASAN_MAIN_OBJ   := $(ASAN_DIR)/src/cli/main.o
+ASAN_TEST_OBJ   := $(TEST_SRC:%.c=$(ASAN_DIR)/%.o)
+
+.PHONY: fuzz fuzz-smoke fuzz-deps fuzz-build fuzz-seeds test-asan asan-build
+
+fuzz-deps:
+	@$(MAKE) --no-print-directory deps DEB_PKGS="$(FUZZ_DEB_PKGS)"
+
+$(FUZZ_DIR)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer-no-link -MMD -MP -c -o $@ $<
+
+$(FUZZ_DIR)/fuzz_ply: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -DFUZZ_PLY -o $@ $< $(FUZZ_LIB_OBJ) -lm
+
+$(FUZZ_DIR)/fuzz_las: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -DFUZZ_LAS -o $@ $< $(FUZZ_LIB_OBJ) -lm
+
+fuzz-build: fuzz-deps
+	@$(MAKE) --no-print-directory $(FUZZ_TARGETS)
+
+fuzz-seeds:
+	python3 tests/fuzz/make_seeds.py $(FUZZ_DATA) $(FUZZ_DIR)/seeds $(FUZZ_MAX_LEN)
+
+fuzz: fuzz-build fuzz-seeds
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/ply $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/las $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
+
+# Fresh corpora and a fixed seed: the same executions on every CI run.
+fuzz-smoke: fuzz-build fuzz-seeds
+	rm -rf $(FUZZ_DIR)/smoke
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/smoke/ply $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/smoke/las $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
+
+$(ASAN_DIR)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(ASAN_SAN) -MMD -MP -c -o $@ $<
+
+$(ASAN_DIR)/libwpd.a: $(ASAN_LIB_OBJ)
+	ar rcs $@ $^
+
+$(ASAN_DIR)/wpd: $(ASAN_MAIN_OBJ) $(ASAN_DIR)/libwpd.a
+	$(CC) $(LDFLAGS) $(ASAN_SAN) -o $@ $^ $(LDLIBS)
+
+$(ASAN_DIR)/unit_tests: $(ASAN_TEST_OBJ) $(ASAN_DIR)/libwpd.a
+	$(CC) $(LDFLAGS) $(ASAN_SAN) -o $@ $^ $(LDLIBS)
+
+asan-build: deps
+	@$(MAKE) --no-print-directory $(ASAN_DIR)/wpd $(ASAN_DIR)/unit_tests
+
+test-asan: asan-build
+	tests/asan.sh $(ASAN_DIR)
+
+-include $(FUZZ_LIB_OBJ:.o=.d) $(ASAN_LIB_OBJ:.o=.d) $(ASAN_MAIN_OBJ:.o=.d) $(ASAN_TEST_OBJ:.o=.d)

@@ -24,7 +24,7 @@ run_suite() {  # name, command...
     total_pass=$((total_pass + p)); total_fail=$((total_fail + f))
 }
 
-run_suite unit build/unit_tests
+run_suite unit "${WPD_UNIT_TESTS:-build/unit_tests}"   # test-asan: sanitized build
 run_suite e2e /usr/bin/python3 tests/e2e/run.py
 
 echo "$total_pass passed, $total_fail failed"

@@ -9,7 +9,8 @@ import tempfile
 import traceback
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-WPD = os.path.join(REPO, "wpd")
+# WPD_BIN runs the suite against another build (make test-asan: build/asan/wpd).
+WPD = os.environ.get("WPD_BIN") or os.path.join(REPO, "wpd")
 DATA = os.environ.get("WPD_TEST_DATA", os.path.join(REPO, "..", "shared", "data"))
 
 
