@@ -551,9 +551,11 @@ static int add_extra_dims(wpd_header *h, uint32_t start, uint32_t end, wpd_error
         pos += used;
     }
     for (; pos < end; pos++) {
-        char name[WPD_DIM_NAME_MAX];
+        char name[WPD_DIM_NAME_MAX], unique[WPD_DIM_NAME_MAX];
         snprintf(name, sizeof name, "extra_byte_%u", pos - start);
-        if (wpd_schema_add(&h->schema, name, WPD_U8, pos) < 0)
+        /* A descriptor may already use the name (found by fuzzing). */
+        unique_dim_name(&h->schema, name, pos, unique);
+        if (wpd_schema_add(&h->schema, unique, WPD_U8, pos) < 0)
             break; /* schema full: the bytes stay in the record, unnamed */
     }
     return 0;
