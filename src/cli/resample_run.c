@@ -95,7 +95,8 @@ int wpd_run_in_memory(wpd_cloud *cloud, uint64_t target, const wpd_params *param
      * cloud gives the same samples whether it fits --mem or is tiled. */
     if (params.radius_method == WPD_RADIUS_MULTISCALE && target < c.n) {
         double t = omp_get_wtime();
-        params.radius = wpd_ladder_radius(c.xyz, c.n, c.extent, target, params.density);
+        params.radius =
+            wpd_ladder_radius(c.xyz, c.n, c.extent, target, params.density, params.threads);
         if (params.radius < 0) {
             wpd_fail(err, WPD_E_MEMORY, "out of memory for the radius estimate");
             goto done;

@@ -48,10 +48,11 @@ static size_t samples_bytes(uint64_t target, uint32_t record_size)
     return (size_t)(1.3 * (double)target) * wpd_engine_bytes_per_sample(record_size);
 }
 
-size_t wpd_engine_min_budget(uint64_t target, uint32_t record_size, int threads)
+size_t wpd_engine_min_budget(uint64_t target, uint32_t record_size)
 {
     return FIXED_BYTES + SPILL_BUFFERS_MAX / 4 + samples_bytes(target, record_size) +
-           (size_t)threads * MIN_TILE_POINTS * wpd_engine_bytes_per_tile_point(record_size);
+           (size_t)WPD_ENGINE_TILES_IN_FLIGHT * MIN_TILE_POINTS *
+               wpd_engine_bytes_per_tile_point(record_size);
 }
 
 /* ------------------------------------------------------------------ state */
@@ -356,12 +357,19 @@ done:
  * the work of its neighbours of earlier colours, whatever the threads. */
 typedef int (*tile_fn)(engine *e, int t, double r, wpd_error *err);
 
+/* Threads working on tiles: one tile each, at most the tiles the budget
+ * holds at once. */
+static int tile_threads(const engine *e)
+{
+    return e->threads < WPD_ENGINE_TILES_IN_FLIGHT ? e->threads : WPD_ENGINE_TILES_IN_FLIGHT;
+}
+
 static int for_each_tile_by_colour(engine *e, tile_fn fn, double r, wpd_error *err)
 {
     int failed = 0;
     wpd_error first_err = {0};
     for (int c = 0; c < e->plan.ncolours && !failed; c++) {
-#pragma omp parallel for num_threads(e->threads) schedule(dynamic, 1)
+#pragma omp parallel for num_threads(tile_threads(e)) schedule(dynamic, 1)
         for (int t = 0; t < e->plan.ntiles; t++) {
             if (e->plan.tiles[t].colour != c || failed)
                 continue;
@@ -732,7 +740,7 @@ static int copy_tile_boxes(engine *e)
 
 static int check_budget(const engine *e, uint64_t declared, wpd_error *err)
 {
-    size_t need = wpd_engine_min_budget(e->opt->target, e->record_size, e->threads);
+    size_t need = wpd_engine_min_budget(e->opt->target, e->record_size);
     if (e->opt->mem_bytes < need)
         return wpd_fail(err, WPD_E_MEMORY,
                         "memory budget too small: %zu MiB given, at least %zu MiB needed for "
@@ -746,7 +754,8 @@ static uint64_t max_tile_points(const engine *e)
 {
     size_t fixed = FIXED_BYTES + SPILL_BUFFERS_MAX + samples_bytes(e->opt->target, e->record_size);
     size_t left = e->opt->mem_bytes > fixed ? e->opt->mem_bytes - fixed : 0;
-    uint64_t m = left / ((size_t)e->threads * wpd_engine_bytes_per_tile_point(e->record_size));
+    uint64_t m = left / ((size_t)WPD_ENGINE_TILES_IN_FLIGHT *
+                         wpd_engine_bytes_per_tile_point(e->record_size));
     return m < MIN_TILE_POINTS ? MIN_TILE_POINTS : m;
 }
 
@@ -768,7 +777,7 @@ static int run_phases(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
     wpd_engine_timings *tm = &res->time;
-    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, e->opt->progress, &e->scan, err))
+    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, e->threads, e->opt->progress, &e->scan, err))
         return -1;
     tm->bounds = e->scan.bounds_seconds;
     tm->scan = e->scan.scan_seconds;

@@ -71,9 +71,15 @@ typedef struct wpd_engine_result {
 size_t wpd_engine_bytes_per_tile_point(uint32_t record_size);
 size_t wpd_engine_bytes_per_sample(uint32_t record_size);
 
-/* Smallest useful budget for target samples of record_size bytes with
- * threads tiles in flight; below it wpd_engine_run refuses to start. */
-size_t wpd_engine_min_budget(uint64_t target, uint32_t record_size, int threads);
+/* Tiles are sized so that this many fit the budget at once, whatever the
+ * number of threads: the tiling, and so the output, must not depend on it.
+ * At most this many tiles are in flight; more threads than that do not
+ * speed the tile phases up. */
+#define WPD_ENGINE_TILES_IN_FLIGHT 4
+
+/* Smallest useful budget for target samples of record_size bytes; below it
+ * wpd_engine_run refuses to start. */
+size_t wpd_engine_min_budget(uint64_t target, uint32_t record_size);
 
 /* Resamples cloud to opt->target points. Returns 0 (res filled, free with
  * wpd_engine_result_free), or -1 with err set: WPD_E_MEMORY when the budget

@@ -18,23 +18,132 @@ size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3])
     return c[0] + (size_t)s->dim[0] * (c[1] + (size_t)s->dim[1] * c[2]);
 }
 
-static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, wpd_progress *pg, wpd_error *err)
+/* Both passes compute sums and sets, which do not depend on the order of
+ * the points: each thread reads whole batches in turn (the read itself is
+ * serial, under a lock) and counts them into its own counter while the
+ * other threads read, so reading overlaps counting without a thread per
+ * batch join, which stalls whenever a thread of the team is descheduled. */
+enum { BATCH_POINTS = 65536 };
+
+/* What one thread has counted; combined at the end of the pass. */
+typedef struct counter {
+    wpd_batch batch;
+    wpd_bounds box;
+    uint64_t *file_count;     /* [nfiles] */
+    wpd_ladder ladder;        /* scan pass only */
+    uint64_t *density;        /* scan pass only */
+    int failed;               /* 1 out of memory */
+} counter;
+
+static void counters_free(counter *c, int threads)
 {
-    wpd_batch b;
-    if (wpd_batch_init(&b, 65536, wpd_cloud_header(cloud, 0)->schema.record_size))
+    for (int t = 0; c && t < threads; t++) {
+        wpd_batch_free(&c[t].batch);
+        free(c[t].file_count);
+        wpd_ladder_free(&c[t].ladder);
+        free(c[t].density);
+    }
+    free(c);
+}
+
+/* Counters for the bounds pass (scan == NULL) or the scan pass. */
+static counter *counters_new(wpd_cloud *cloud, const wpd_scan *scan, size_t voxel_cap,
+                             int threads, size_t cells)
+{
+    counter *c = calloc((size_t)threads, sizeof *c);
+    uint32_t rs = wpd_cloud_header(cloud, 0)->schema.record_size;
+    int ok = c != NULL;
+    for (int t = 0; ok && t < threads; t++) {
+        wpd_bounds_reset(&c[t].box);
+        ok = wpd_batch_init(&c[t].batch, BATCH_POINTS, rs) == 0 &&
+             (c[t].file_count = calloc((size_t)wpd_cloud_nfiles(cloud), sizeof(uint64_t)));
+        if (ok && scan)
+            ok = wpd_ladder_init(&c[t].ladder, scan->extent, scan->count, voxel_cap) == 0 &&
+                 (c[t].density = calloc(cells, sizeof *c[t].density));
+    }
+    if (!ok) {
+        counters_free(c, threads);
+        return NULL;
+    }
+    return c;
+}
+
+static void count_batch(const wpd_scan *s, counter *c)
+{
+    const wpd_batch *b = &c->batch;
+    for (size_t i = 0; i < b->n && !c->failed; i++) {
+        double p[3];
+        for (int a = 0; a < 3; a++)
+            p[a] = b->xyz[3 * i + a] - s->origin[a];
+        c->density[wpd_scan_cell_of(s, p)]++;
+        c->failed = wpd_ladder_put(&c->ladder, p) != 0;
+    }
+}
+
+/* Streams the cloud once on `threads` threads into the counters: bounds
+ * and points per file, and with scan != NULL the voxels and the density.
+ * Returns 0, or -1 with err set (read error, or memory for the ladder). */
+static int count_cloud(wpd_cloud *cloud, const wpd_scan *scan, counter *c, int threads,
+                       wpd_progress *pg, wpd_error *err)
+{
+    if (wpd_cloud_rewind(cloud, err))
+        return -1;
+    int stop = 0, failed = 0;
+#pragma omp parallel num_threads(threads)
+    {
+        /* A private copy: the counters of all threads share cache lines. */
+        counter mine = c[omp_get_thread_num()];
+        for (;;) {
+            long got;
+            int file = 0;
+#pragma omp critical(wpd_scan_read)
+            {
+                got = stop ? 0 : wpd_cloud_read(cloud, &mine.batch, &file, err);
+                if (got <= 0)
+                    stop = 1;
+                if (got < 0)
+                    failed = 1;
+            }
+            if (got <= 0)
+                break;
+            wpd_bounds_add(&mine.box, mine.batch.xyz, mine.batch.n);
+            mine.file_count[file] += mine.batch.n;
+            if (scan)
+                count_batch(scan, &mine);
+            wpd_progress_add(pg, mine.batch.n);
+            if (mine.failed) {
+#pragma omp critical(wpd_scan_read)
+                stop = 1;
+            }
+        }
+        c[omp_get_thread_num()] = mine;
+    }
+    for (int t = 0; t < threads; t++)
+        if (c[t].failed && !failed)
+            failed = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
+    return failed ? -1 : 0;
+}
+
+static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, int threads, wpd_progress *pg,
+                       wpd_error *err)
+{
+    counter *c = counters_new(cloud, NULL, 0, threads, 0);
+    if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    int rc = count_cloud(cloud, NULL, c, threads, pg, err);
     wpd_bounds box;
     wpd_bounds_reset(&box);
-    long got;
-    int file;
-    int rc = wpd_cloud_rewind(cloud, err);
-    while (rc == 0 && (got = wpd_cloud_read(cloud, &b, &file, err)) > 0) {
-        wpd_bounds_add(&box, b.xyz, b.n);
-        s->file_count[file] += b.n;
-        wpd_progress_add(pg, b.n);
+    for (int t = 0; rc == 0 && t < threads; t++) {
+        for (int a = 0; a < 3 && c[t].box.count; a++) {
+            box.min[a] = fmin(box.min[a], c[t].box.min[a]);
+            box.max[a] = fmax(box.max[a], c[t].box.max[a]);
+        }
+        box.count += c[t].box.count;
+        for (int f = 0; f < s->nfiles; f++)
+            s->file_count[f] += c[t].file_count[f];
     }
-    wpd_batch_free(&b);
-    if (rc || got < 0)
+    counters_free(c, threads);
+    if (rc)
         return -1;
     if (box.count == 0)
         return wpd_fail(err, WPD_E_INPUT, "%s: no point with finite coordinates",
@@ -59,40 +168,36 @@ static void init_grid(wpd_scan *s)
     }
 }
 
-static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, wpd_progress *pg,
-                     wpd_error *err)
+/* Sums the threads' densities into s and merges their ladders into the
+ * counts per scale: the same as one thread counting everything. */
+static int combine(wpd_scan *s, counter *c, int threads, size_t cells)
 {
-    wpd_ladder v;
-    wpd_batch b;
-    if (wpd_ladder_init(&v, s->extent, s->count, voxel_cap) ||
-        wpd_batch_init(&b, 65536, wpd_cloud_header(cloud, 0)->schema.record_size)) {
-        wpd_ladder_free(&v);
+    for (int t = 1; t < threads; t++) {
+        for (size_t i = 0; i < cells; i++)
+            c[0].density[i] += c[t].density[i];
+        if (wpd_ladder_merge(&c[0].ladder, &c[t].ladder))
+            return -1;
+    }
+    memcpy(s->density, c[0].density, cells * sizeof *s->density);
+    return wpd_ladder_finish(&c[0].ladder, s->edge, s->voxels, &s->nscales);
+}
+
+static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int threads,
+                     wpd_progress *pg, wpd_error *err)
+{
+    size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
+    counter *c = counters_new(cloud, s, voxel_cap, threads, cells);
+    if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
-    }
-    long got;
-    int rc = wpd_cloud_rewind(cloud, err);
-    while (rc == 0 && (got = wpd_cloud_read(cloud, &b, NULL, err)) > 0) {
-        for (size_t i = 0; i < b.n && rc == 0; i++) {
-            double p[3];
-            for (int a = 0; a < 3; a++)
-                p[a] = b.xyz[3 * i + a] - s->origin[a];
-            s->density[wpd_scan_cell_of(s, p)]++;
-            if (wpd_ladder_put(&v, p))
-                rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
-        }
-        wpd_progress_add(pg, b.n);
-    }
-    if (rc == 0 && got < 0)
-        rc = -1;
-    if (rc == 0 && wpd_ladder_finish(&v, s->edge, s->voxels, &s->nscales))
+    int rc = count_cloud(cloud, s, c, threads, pg, err);
+    if (rc == 0 && combine(s, c, threads, cells))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
-    wpd_batch_free(&b);
-    wpd_ladder_free(&v);
+    counters_free(c, threads);
     return rc;
 }
 
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_progress *progress, wpd_scan *out,
-                 wpd_error *err)
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *progress,
+                 wpd_scan *out, wpd_error *err)
 {
     memset(out, 0, sizeof *out);
     out->nfiles = wpd_cloud_nfiles(cloud);
@@ -101,7 +206,7 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_progress *progress, wpd
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     double t = omp_get_wtime();
     wpd_progress_phase(progress, "bounds", wpd_cloud_count(cloud), "points");
-    if (bounds_pass(cloud, out, progress, err))
+    if (bounds_pass(cloud, out, threads < 1 ? 1 : threads, progress, err))
         goto fail;
     wpd_progress_end(progress);
     out->bounds_seconds = omp_get_wtime() - t;
@@ -113,7 +218,7 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_progress *progress, wpd
         goto fail;
     }
     wpd_progress_phase(progress, "scan", out->count, "points");
-    if (scan_pass(cloud, out, voxel_cap, progress, err) || wpd_cloud_rewind(cloud, err))
+    if (scan_pass(cloud, out, voxel_cap, threads < 1 ? 1 : threads, progress, err) || wpd_cloud_rewind(cloud, err))
         goto fail;
     wpd_progress_end(progress);
     out->scan_seconds = omp_get_wtime() - t;

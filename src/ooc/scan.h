@@ -37,12 +37,13 @@ typedef struct wpd_scan {
     double bounds_seconds, scan_seconds;
 } wpd_scan;
 
-/* Runs both passes over cloud (rewound before and after). voxel_cap: the
- * most voxel keys held at once (memory: ~32 bytes each). Returns 0, or -1
+/* Runs both passes over cloud (rewound before and after) on `threads`
+ * threads (>= 1; the counts do not depend on it). voxel_cap: the most voxel keys held at once per thread
+ * (memory: ~32 bytes each). Returns 0, or -1
  * with err set (read errors; WPD_E_INPUT when there is no finite point).
  * progress (may be NULL) gets phases "bounds" and "scan". */
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, wpd_progress *progress, wpd_scan *out,
-                 wpd_error *err);
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *progress,
+                 wpd_scan *out, wpd_error *err);
 
 /* Density grid cell of frame point p (clamped into the grid). */
 size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3]);

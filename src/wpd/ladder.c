@@ -1,6 +1,8 @@
 #include "wpd/ladder.h"
 
 #include <math.h>
+#include <omp.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Keys pack 21 bits per axis of voxel indices relative to the origin. */
@@ -38,6 +40,27 @@ static int coarsen(wpd_voxel_set *set)
     return 0;
 }
 
+/* One scale coarser: every key and the edge. */
+static int coarsen_ladder(wpd_ladder *l)
+{
+    if (coarsen(&l->set))
+        return -1;
+    l->edge *= 2;
+    l->inv = 1.0 / l->edge;
+    l->level++;
+    l->last = WPD_VOXEL_KEY_EMPTY;
+    return 0;
+}
+
+/* Coarsens until the keys fit the cap. */
+static int fit_cap(wpd_ladder *l)
+{
+    while (l->set.count > l->cap)
+        if (coarsen_ladder(l))
+            return -1;
+    return 0;
+}
+
 int wpd_ladder_init(wpd_ladder *l, const double extent[3], uint64_t npoints, size_t cap)
 {
     memset(l, 0, sizeof *l);
@@ -65,13 +88,28 @@ int wpd_ladder_put(wpd_ladder *l, const double p[3])
     l->last = key;
     if (wpd_voxel_set_put(&l->set, key))
         return -1;
-    while (l->set.count > l->cap) {
-        if (coarsen(&l->set))
+    return fit_cap(l);
+}
+
+int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from)
+{
+    while (into->level < from->level)
+        if (coarsen_ladder(into))
             return -1;
-        l->edge *= 2;
-        l->inv = 1.0 / l->edge;
-        l->last = WPD_VOXEL_KEY_EMPTY;
+    while (from->level < into->level)
+        if (coarsen_ladder(from))
+            return -1;
+    for (size_t i = 0; i < from->set.cap; i++) {
+        uint64_t key = from->set.slot[i];
+        if (key == WPD_VOXEL_KEY_EMPTY)
+            continue;
+        /* into may have coarsened during the merge: bring key along */
+        for (int d = from->level; d < into->level; d++)
+            key = coarser(key);
+        if (wpd_voxel_set_put(&into->set, key) || fit_cap(into))
+            return -1;
     }
+    into->last = WPD_VOXEL_KEY_EMPTY;
     return 0;
 }
 
@@ -98,17 +136,34 @@ void wpd_ladder_free(wpd_ladder *l)
 }
 
 double wpd_ladder_radius(const double *xyz, size_t n, const double extent[3], size_t target,
-                         double density)
+                         double density, int threads)
 {
-    wpd_ladder l;
+    if (threads <= 0)
+        threads = omp_get_max_threads();
+    wpd_ladder *part = calloc((size_t)threads, sizeof *part);
+    if (!part)
+        return -1;
     double edge[WPD_MAX_SCALES];
     uint64_t m[WPD_MAX_SCALES];
-    int nscales = 0, rc = wpd_ladder_init(&l, extent, n, WPD_LADDER_KEYS);
-    for (size_t i = 0; rc == 0 && i < n; i++)
-        rc = wpd_ladder_put(&l, xyz + 3 * i);
+    int nscales = 0, rc = 0;
+    /* Each thread counts a contiguous share; the merge gives what one
+     * stream over all points gives (wpd_ladder_merge). */
+#pragma omp parallel num_threads(threads) reduction(| : rc)
+    {
+        int t = omp_get_thread_num(), nt = omp_get_num_threads();
+        size_t lo = n * (size_t)t / (size_t)nt, hi = n * (size_t)(t + 1) / (size_t)nt;
+        rc |= wpd_ladder_init(&part[t], extent, n, WPD_LADDER_KEYS);
+        for (size_t i = lo; rc == 0 && i < hi; i++)
+            rc |= wpd_ladder_put(&part[t], xyz + 3 * i);
+    }
+    for (int t = 1; rc == 0 && t < threads; t++)
+        if (part[t].set.slot) /* NULL: the team had fewer threads */
+            rc = wpd_ladder_merge(&part[0], &part[t]);
     if (rc == 0)
-        rc = wpd_ladder_finish(&l, edge, m, &nscales);
-    wpd_ladder_free(&l);
+        rc = wpd_ladder_finish(&part[0], edge, m, &nscales);
+    for (int t = 0; t < threads; t++)
+        wpd_ladder_free(&part[t]);
+    free(part);
     if (rc)
         return -1;
     wpd_radius_info ri;

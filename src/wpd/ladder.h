@@ -23,6 +23,7 @@
 typedef struct wpd_ladder {
     wpd_voxel_set set;
     double edge, inv;         /* current voxel edge */
+    int level;                /* times coarsened since init */
     size_t cap;               /* keys allowed before coarsening */
     uint64_t last;            /* last key put: scans repeat voxels */
 } wpd_ladder;
@@ -34,6 +35,13 @@ int wpd_ladder_init(wpd_ladder *l, const double extent[3], uint64_t npoints, siz
 /* Adds one point (frame coordinates, each >= 0). Returns 0 or -1 (memory). */
 int wpd_ladder_put(wpd_ladder *l, const double p[3]);
 
+/* Adds every voxel of `from` (consumed; free it after) to `into`; both
+ * were initialised with the same arguments. The result is the ladder that
+ * one stream of both inputs gives - the finest scale, at or above both,
+ * whose occupied voxels fit the cap - so a cloud can be counted in parts on
+ * several threads and merged. Returns 0 or -1 (memory). */
+int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from);
+
 /* Counts per scale, finest first, into edge[] and m[] (WPD_MAX_SCALES
  * each); *nscales set. Consumes the set. Returns 0 or -1 (memory). */
 int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales);
@@ -41,9 +49,10 @@ int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales);
 void wpd_ladder_free(wpd_ladder *l);
 
 /* The radius for target samples from points xyz[3n] (frame coordinates
- * >= 0, extent as given) with the ladder above and the multiscale density.
- * Returns the radius, or -1 when out of memory. */
+ * >= 0, extent as given) with the ladder above and the multiscale density,
+ * counted on `threads` threads (<= 0: the OpenMP default; the result does
+ * not depend on it). Returns the radius, or -1 when out of memory. */
 double wpd_ladder_radius(const double *xyz, size_t n, const double extent[3], size_t target,
-                         double density);
+                         double density, int threads);
 
 #endif

@@ -85,6 +85,17 @@ def test_engine_exact_count_and_same_bytes_for_threads():
     assert filecmp.cmp("t1.las", "t2.las", shallow=False)
 
 
+def test_tiles_sized_by_the_budget_give_the_same_bytes_for_threads():
+    # Without --min-tiles the budget sizes the tiles: the tiling, and so
+    # the bytes, must not depend on the number of threads.
+    src = data(*NC)
+    r1 = run(src, "m1.las", 20000, "--mem", "100M", "--threads", 1)
+    r2 = run(src, "m2.las", 20000, "--mem", "100M", "--threads", 2)
+    assert r1["tiles"]["count"] >= 16, r1["tiles"]["count"]
+    assert r1["tiles"]["count"] == r2["tiles"]["count"]
+    assert filecmp.cmp("m1.las", "m2.las", shallow=False)
+
+
 def test_engine_quality_within_2_percent_of_one_tile():
     src = data(*NC)
     one = run(src, "one.las", 100000)
