@@ -13,6 +13,7 @@
 #include "core/voronoi.h"
 #include "harness.h"
 #include "wpd/exact.h"
+#include "wpd/ladder.h"
 #include "wpd/poisson.h"
 #include "wpd/radius.h"
 #include "wpd/refine.h"
@@ -572,4 +573,43 @@ TEST(wpd_rejects_bad_arguments)
     b.nfixed = 3;
     CHECK(wpd_run_block(&b, 10, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
     scan_free(&s);
+}
+
+/* Counting a cloud in parts and merging the ladders gives the counts of one
+ * stream over all points, whatever the split: the scan and the in-memory
+ * radius count on several threads. A small cap forces coarsening, at
+ * different moments in each part. */
+TEST(ladder_merge_equals_one_stream)
+{
+    enum { N = 60000, CAP = 1500 };
+    double *xyz = malloc(3 * N * sizeof *xyz);
+    uint64_t s = 7;
+    for (int i = 0; i < 3 * N; i++) {
+        s = s * 6364136223846793005ull + 1442695040888963407ull;
+        xyz[i] = (double)(s >> 11) / (double)(1ull << 53) * (i % 3 == 2 ? 5.0 : 100.0);
+    }
+    const double extent[3] = {100, 100, 5};
+    double e1[WPD_MAX_SCALES], e2[WPD_MAX_SCALES];
+    uint64_t m1[WPD_MAX_SCALES], m2[WPD_MAX_SCALES];
+    int n1 = 0, n2 = 0;
+    wpd_ladder one, a, b;
+    CHECK(wpd_ladder_init(&one, extent, N, CAP) == 0);
+    for (int i = 0; i < N; i++)
+        CHECK(wpd_ladder_put(&one, xyz + 3 * i) == 0);
+    CHECK(wpd_ladder_finish(&one, e1, m1, &n1) == 0);
+    /* a: a tenth of the points, one level; b: the rest, coarser */
+    CHECK(wpd_ladder_init(&a, extent, N, CAP) == 0 && wpd_ladder_init(&b, extent, N, CAP) == 0);
+    for (int i = 0; i < N; i++)
+        CHECK(wpd_ladder_put(i < N / 10 ? &a : &b, xyz + 3 * i) == 0);
+    CHECK_MSG(a.level < b.level, "levels %d %d", a.level, b.level);
+    CHECK(wpd_ladder_merge(&a, &b) == 0);
+    CHECK(wpd_ladder_finish(&a, e2, m2, &n2) == 0);
+    CHECK_MSG(n1 == n2, "scales %d vs %d", n1, n2);
+    for (int i = 0; i < n1 && i < n2; i++)
+        CHECK_MSG(e1[i] == e2[i] && m1[i] == m2[i], "scale %d: %g %llu vs %g %llu", i, e1[i],
+                  (unsigned long long)m1[i], e2[i], (unsigned long long)m2[i]);
+    wpd_ladder_free(&one);
+    wpd_ladder_free(&a);
+    wpd_ladder_free(&b);
+    free(xyz);
 }
