@@ -62,7 +62,7 @@ int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
     memset(&dst, 0, sizeof dst); /* freed below even when src fails */
     if (wpd_batch_init(&src, 65536, sel->record_size) ||
         wpd_batch_init(&dst, 65536, out.schema.record_size)) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for the write buffers", path);
         goto done;
     }
     if (!(w = wpd_writer_open(path, &out, opt, err)))

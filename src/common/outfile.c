@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <libgen.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -68,6 +69,19 @@ int wpd_outfile_sweep_stale(const char *path)
     return removed;
 }
 
+/* SIGINT, SIGTERM and SIGHUP blocked on this thread (old mask in *old):
+ * between creating a file and registering it for removal, a signal would
+ * leave the file behind (the handlers remove only what is registered). */
+static void block_cleanup_signals(sigset_t *old)
+{
+    sigset_t block;
+    sigemptyset(&block);
+    sigaddset(&block, SIGINT);
+    sigaddset(&block, SIGTERM);
+    sigaddset(&block, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &block, old);
+}
+
 static void lock_path(const char *path, char *out, size_t size)
 {
     char dir[1024], base[1024];
@@ -79,15 +93,37 @@ int wpd_output_lock(const char *path, wpd_error *err)
 {
     char lock[2200];
     lock_path(path, lock, sizeof lock);
-    int fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd < 0)
-        return wpd_fail_errno(err, "%s: cannot create lock file %s", path, lock);
-    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    sigset_t old;
+    block_cleanup_signals(&old);
+    int fd = -1;
+    /* The holder unlinks the lock file when done, so the file locked here
+     * may already be unlinked by the time we hold it: then a third run can
+     * create and lock a new one. Holding the lock counts only if the path
+     * still names the locked file; otherwise try again on the new one. */
+    for (int attempt = 0; attempt < 100; attempt++) {
+        fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd < 0) {
+            pthread_sigmask(SIG_SETMASK, &old, NULL);
+            return wpd_fail_errno(err, "%s: cannot create lock file %s", path, lock);
+        }
+        if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            close(fd);
+            pthread_sigmask(SIG_SETMASK, &old, NULL);
+            return wpd_fail(err, WPD_E_IO, "%s: being written by another wpd run (lock %s)",
+                            path, lock);
+        }
+        struct stat held, named;
+        if (fstat(fd, &held) == 0 && stat(lock, &named) == 0 && held.st_dev == named.st_dev &&
+            held.st_ino == named.st_ino)
+            break;
         close(fd);
-        return wpd_fail(err, WPD_E_IO, "%s: being written by another wpd run (lock %s)", path,
-                        lock);
+        fd = -1;
     }
-    wpd_tmpdir_track_file(lock); /* a signal must not leave it behind either */
+    if (fd >= 0)
+        wpd_tmpdir_track_file(lock); /* a signal must not leave it behind either */
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    if (fd < 0)
+        return wpd_fail(err, WPD_E_IO, "%s: lock file %s keeps being replaced", path, lock);
     return fd;
 }
 
@@ -113,12 +149,18 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
     struct stat st;
     if (!overwrite && stat(path, &st) == 0)
         return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)", path);
+    sigset_t old;
+    block_cleanup_signals(&old);
     f->fd = mkostemp(f->temp_path, O_CLOEXEC);
+    if (f->fd >= 0)
+        wpd_tmpdir_track_file(f->temp_path); /* removed if a signal stops the run */
+    int saved = errno;
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
     if (f->fd < 0) {
         f->temp_path[0] = '\0';
+        errno = saved;
         return wpd_fail_errno(err, "%s: cannot create output", path);
     }
-    wpd_tmpdir_track_file(f->temp_path); /* removed if a signal stops the run */
     wpd_test_stall("write");
     /* mkostemp creates 0600; give the file the mode a plain creat() would. */
     mode_t mask = umask(0);
