@@ -1,0 +1,475 @@
+"""Fault injection: truncated inputs, read errors, a full disk while
+spilling and while writing, failing allocations, kills at random moments.
+Every fault must end with its documented exit code and a one-line message,
+no output under the final name, no temporary output, lock or spill
+directory left behind, and the inputs unchanged (sha256 before and after).
+Both paths run: the cloud in memory and the out-of-core engine (--min-tiles).
+
+Read, write, sync/close and allocation faults come from tests/fault/fault.c,
+an LD_PRELOAD interposer compiled here with `cc -shared -fPIC` (those tests
+skip when there is no compiler, or when wpd is a sanitizer build, whose
+allocator must not be interposed). The full disk is a small tmpfs when
+mount works (root), else the interposer; a file size limit is also tested."""
+import atexit
+import hashlib
+import os
+import random
+import resource
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+
+from formats import read_las, read_ply
+from harness import DATA, REPO, WPD, Skip
+
+# Both paths of `wpd resample`: every fault runs through each.
+PATHS = {"memory": [], "engine": ["--min-tiles", "4"]}
+
+_cache = {}
+
+
+def _cache_dir():
+    if "dir" not in _cache:
+        _cache["dir"] = tempfile.mkdtemp(prefix="wpd-faults-")
+        atexit.register(shutil.rmtree, _cache["dir"], True)
+    return _cache["dir"]
+
+
+def synth(n, ext, ascii_ply=False, seed=1):
+    """A synthetic scan of n points, made once per test run."""
+    key = (n, ext, ascii_ply, seed)
+    if key not in _cache:
+        path = os.path.join(_cache_dir(), "synth_%d_%d%s.%s" % (n, seed, "_a" if ascii_ply else "",
+                                                               ext))
+        args = ["synth", "-n", n, "-o", path, "--seed", seed] + (["--ascii"] if ascii_ply else [])
+        subprocess.run([WPD, *map(str, args)], check=True, capture_output=True)
+        os.chmod(path, 0o444)  # a test that writes to it fails loudly
+        _cache[key] = path
+    return _cache[key]
+
+
+def sanitized():
+    """1 if ./wpd is an ASan/UBSan build (make test-asan)."""
+    if "asan" not in _cache:
+        with open(WPD, "rb") as f:
+            blob = f.read()
+        _cache["asan"] = b"__asan_init" in blob or b"__ubsan_handle" in blob
+    return _cache["asan"]
+
+
+def interposer():
+    """Path of the compiled tests/fault/fault.c; skips the test when it
+    cannot be built or used."""
+    if sanitized():
+        raise Skip("wpd is a sanitizer build: the LD_PRELOAD fault interposer would "
+                   "replace its allocator")
+    if "so" not in _cache:
+        cc = os.environ.get("CC", "cc")
+        if not shutil.which(cc):
+            raise Skip("no C compiler (%s) to build the fault interposer tests/fault/fault.c" % cc)
+        so = os.path.join(_cache_dir(), "fault.so")
+        src = os.path.join(REPO, "tests", "fault", "fault.c")
+        p = subprocess.run([cc, "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-o",
+                            so, src], capture_output=True, text=True)
+        assert p.returncode == 0, "cannot build %s: %s" % (src, p.stderr)
+        _cache["so"] = so
+    return _cache["so"]
+
+
+def sha256(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
+def leftovers(*dirs):
+    """Spill directories, temporary outputs and lock files in dirs."""
+    return [os.path.join(d, f) for d in dirs for f in os.listdir(d)
+            if f.startswith("wpd-spill-") or ".wpd-tmp-" in f or f.endswith(".wpd-lock")]
+
+
+def run(args, env=None, preexec_fn=None, timeout=120):
+    full_env = dict(os.environ, **(env or {}))
+    return subprocess.run([WPD, *map(str, args)], capture_output=True, text=True, env=full_env,
+                          preexec_fn=preexec_fn, timeout=timeout)
+
+
+def preload(**faults):
+    """Environment that loads the interposer with the given WPD_FAULT_* settings."""
+    env = {"LD_PRELOAD": interposer()}
+    env.update({"WPD_FAULT_" + k: str(v) for k, v in faults.items()})
+    return env
+
+
+def point_count(path):
+    if path.endswith(".las"):
+        h = read_las(path)
+        assert len(h["points"]) == h["count"] * h["record_length"], path + ": short point block"
+        return h["count"]
+    return len(read_ply(path)[1])
+
+
+class Case:
+    """One faulted run: inputs hashed first, then checked after."""
+
+    def __init__(self, inputs, out, n, extra=(), spill="spill"):
+        self.inputs = inputs if isinstance(inputs, list) else [inputs]
+        self.out, self.n, self.spill = out, n, spill
+        os.makedirs(spill, exist_ok=True)
+        self.args = ["resample", *self.inputs, "-o", out, "-n", n, "--tmpdir", spill,
+                     "--threads", 1, *extra]
+        self.before = {p: sha256(p) for p in self.inputs}
+
+    def run(self, **kw):
+        self.p = run(self.args, **kw)
+        return self.p
+
+    def check_clean(self, what):
+        """No output, no temporary output, lock or spill; inputs unchanged."""
+        out_dir = os.path.dirname(self.out) or "."
+        assert not os.path.exists(self.out), "%s: partial output %s left" % (what, self.out)
+        left = leftovers(out_dir, self.spill)
+        assert left == [], "%s: left behind %s" % (what, left)
+        assert os.listdir(self.spill) == [], "%s: spill dir holds %s" % (what, os.listdir(self.spill))
+        for p, h in self.before.items():
+            assert sha256(p) == h, "%s: input %s changed" % (what, p)
+
+    def check_failed(self, what, code, names=None, says=()):
+        """Exit code, one message line naming `names` first, then clean."""
+        p = self.p
+        assert p.returncode == code, "%s: exit %d, want %d: %s" % (what, p.returncode, code,
+                                                                   p.stderr.strip())
+        lines = p.stderr.strip().splitlines()
+        assert len(lines) == 1, "%s: want one line, got %r" % (what, p.stderr)
+        msg = lines[0]
+        assert msg.startswith("wpd resample: "), (what, msg)
+        if names:
+            assert msg[len("wpd resample: "):].startswith(names), (
+                "%s: message does not start with %s: %s" % (what, names, msg))
+        for s in says:
+            assert s in msg, "%s: message lacks %r: %s" % (what, s, msg)
+        self.check_clean(what)
+        return msg
+
+    def check_succeeded(self, what):
+        p = self.p
+        assert p.returncode == 0, "%s: exit %d: %s" % (what, p.returncode, p.stderr.strip())
+        assert point_count(self.out) == self.n, what
+        assert leftovers(os.path.dirname(self.out) or ".", self.spill) == [], what
+        for path, h in self.before.items():
+            assert sha256(path) == h, "%s: input %s changed" % (what, path)
+
+
+# ------------------------------------------------------------------ truncated inputs
+
+def truncate_copy(src, dst, size):
+    with open(src, "rb") as f:
+        blob = f.read(size)
+    with open(dst, "wb") as f:
+        f.write(blob)
+    return dst
+
+
+def point_start(path):
+    """Byte offset of the first point record (LAS) or vertex (PLY)."""
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+    if head[:4] == b"LASF":
+        return int.from_bytes(head[96:100], "little")
+    end = head.index(b"end_header")
+    return head.index(b"\n", end) + 1
+
+
+def cuts(path):
+    """Truncation points inside the points: mid-record, and at a record or
+    line boundary (a file that simply stops early)."""
+    size, start = os.path.getsize(path), point_start(path)
+    mid = start + (size - start) // 2
+    if path.endswith(".las"):
+        with open(path, "rb") as f:
+            f.seek(105)
+            reclen = int.from_bytes(f.read(2), "little")
+        return {"mid-record": mid - (mid - start) % reclen + reclen // 2,
+                "record boundary": mid - (mid - start) % reclen}
+    with open(path, "rb") as f:
+        f.seek(mid)
+        chunk = f.read(4096)
+    if b"ascii" in open(path, "rb").read(200):
+        line_end = mid + chunk.index(b"\n") + 1
+        return {"mid-line": line_end - 3, "line boundary": line_end}
+    return {"mid-record": mid + 1, "late": start + (size - start) * 9 // 10}
+
+
+def test_truncated_inputs_are_input_errors():
+    files = [synth(100_000, "las"), synth(100_000, "ply"), synth(30_000, "ply", ascii_ply=True)]
+    real = [os.path.join(DATA, "scans", "lone-star_tile1.las"),
+            os.path.join(DATA, "scans", "pcldata_terrain_CSite1_red1-utm.ply"),
+            os.path.join(DATA, "ply", "potree_ripple_ascii.ply")]
+    present = [p for p in real if os.path.exists(p)]
+    print("  real files truncated: %d of %d present in %s" % (len(present), len(real), DATA))
+    runs = 0
+    for src in files + present:
+        ext = os.path.splitext(src)[1]
+        for cut_name, size in cuts(src).items():
+            bad = truncate_copy(src, "cut_%s%s" % (cut_name.replace(" ", "_"), ext), size)
+            for path_name, extra in PATHS.items():
+                what = "%s cut at %d (%s), %s" % (os.path.basename(src), size, cut_name,
+                                                  path_name)
+                c = Case(bad, "out.las", 500, extra)
+                c.run()
+                c.check_failed(what, 2, names=bad)
+                runs += 1
+            os.remove(bad)
+    assert runs >= 12
+
+
+def test_input_that_shrinks_while_read_is_an_input_error():
+    """The header promised more than the file holds when read: the reads
+    end early (the file was truncated by another program mid-run). Limits
+    spread over the passes the engine makes over its inputs."""
+    for src in (synth(100_000, "las"), synth(100_000, "ply"),
+                synth(30_000, "ply", ascii_ply=True)):
+        size = os.path.getsize(src)
+        for path_name, extra in PATHS.items():
+            for after in (size // 2, size + size // 2, 2 * size + size // 3):
+                what = "%s ends after %d bytes read, %s" % (os.path.basename(src), after,
+                                                           path_name)
+                c = Case(src, "out.las", 500, extra)
+                c.run(env=preload(READ_FILE=src, READ_AFTER=after, READ_EOF=1))
+                if c.p.returncode == 0:  # the in-memory path reads once
+                    assert path_name == "memory" and after > size, what
+                    c.check_succeeded(what)
+                    os.remove("out.las")
+                    continue
+                c.check_failed(what, 2, names=src, says=("ends",))
+
+
+# ------------------------------------------------------------------ read errors
+
+def test_read_error_is_an_io_error_naming_the_file():
+    for src in (synth(100_000, "las"), synth(100_000, "ply"),
+                synth(30_000, "ply", ascii_ply=True)):
+        size = os.path.getsize(src)
+        for path_name, extra in PATHS.items():
+            # in the header, in the first pass, in later passes of the engine
+            for after in (100, size // 2, size + size // 3, 3 * size):
+                what = "%s EIO after %d bytes, %s" % (os.path.basename(src), after, path_name)
+                c = Case(src, "out.las", 500, extra)
+                c.run(env=preload(READ_FILE=src, READ_AFTER=after))
+                if c.p.returncode == 0:
+                    assert path_name == "memory" and after > size, what
+                    c.check_succeeded(what)
+                    os.remove("out.las")
+                    continue
+                c.check_failed(what, 3, names=src, says=("Input/output error",))
+
+
+# ------------------------------------------------------------------ disk full
+
+class FullDisk:
+    """A directory that holds at most `size` bytes: a tmpfs when mount
+    works here, else the interposer's ENOSPC after `size` bytes."""
+
+    def __init__(self, path, size):
+        self.path, self.size, self.mounted = path, size, False
+        os.makedirs(path)
+        if os.geteuid() == 0 and shutil.which("mount"):
+            p = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=%d,mode=0755" % size,
+                                "wpd-test-full", path], capture_output=True, text=True)
+            self.mounted = p.returncode == 0
+        if not self.mounted:
+            self.env = preload(WRITE_DIR=os.path.abspath(path), WRITE_AFTER=size)
+        else:
+            self.env = {}
+        self.means = ("a %d KiB tmpfs" % (size >> 10) if self.mounted else
+                      "the LD_PRELOAD interposer (ENOSPC after %d KiB; no tmpfs mount here)"
+                      % (size >> 10))
+
+    def close(self):
+        if self.mounted:
+            if subprocess.run(["umount", self.path]).returncode != 0:
+                subprocess.run(["umount", "-l", self.path])
+            self.mounted = False
+
+
+def test_disk_full_while_spilling_and_while_writing():
+    src = synth(200_000, "las")
+    full = FullDisk("full", 64 << 10)
+    try:
+        print("  full disk: " + full.means)
+        # spilling: the spill directory is on the full disk
+        c = Case(src, "out.las", 10_000, PATHS["engine"], spill="full")
+        c.run(env=full.env)
+        msg = c.check_failed("spilling onto a full disk", 3, says=("disk full",))
+        assert "spill" in msg, msg
+        # writing: the output is on the full disk, in every output format
+        for out in ("full/out.las", "full/out.ply"):
+            for ascii_ply in ([], ["--ascii"]) if out.endswith(".ply") else ([],):
+                for path_name, extra in PATHS.items():
+                    what = "writing %s%s onto a full disk, %s" % (out, " ascii" if ascii_ply else "",
+                                                                 path_name)
+                    c = Case(src, out, 10_000, [*extra, *ascii_ply])
+                    c.run(env=full.env)
+                    c.check_failed(what, 3, names=out, says=("disk full",))
+                    if full.mounted:
+                        assert os.listdir("full") == [], os.listdir("full")
+    finally:
+        full.close()
+
+
+def test_file_size_limit_is_disk_full_not_a_signal():
+    """RLIMIT_FSIZE with SIGXFSZ at its default action (which kills): wpd
+    ignores the signal itself, so the write fails with EFBIG and the run
+    ends like on a full disk."""
+    src = synth(200_000, "las")
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64 << 10, 64 << 10))
+
+    for path_name, extra in PATHS.items():
+        c = Case(src, "out.las", 10_000, extra)
+        c.run(preexec_fn=limit)
+        c.check_failed("file size limit, " + path_name, 3, says=("disk full or file size limit",))
+
+
+def test_errors_reported_only_by_fsync_or_close():
+    """Storage that accepts every write and reports the loss at fsync or
+    close (NFS, quotas): the output must not be renamed into place."""
+    src = synth(100_000, "las")
+    os.makedirs("outdir")
+    for fault, says in (({"SYNC_DIR": os.path.abspath("outdir")}, "Input/output error"),
+                        ({"CLOSE_DIR": os.path.abspath("outdir")}, "disk full")):
+        for path_name, extra in PATHS.items():
+            for out in ("outdir/out.las", "outdir/out.ply"):
+                what = "%s, %s, %s" % (list(fault)[0], out, path_name)
+                c = Case(src, out, 5_000, extra)
+                c.run(env=preload(**fault))
+                c.check_failed(what, 3, names=out, says=(says,))
+
+
+# ------------------------------------------------------------------ allocation failures
+
+def allocation_count(case, env):
+    count_file = os.path.abspath("alloc-count")
+    case.run(env=dict(env, **preload(MALLOC_COUNT=count_file)))
+    assert case.p.returncode == 0, case.p.stderr
+    os.remove(case.out)
+    with open(count_file) as f:
+        return int(f.read())
+
+
+def test_allocation_failures_end_cleanly_in_every_phase():
+    """The N-th allocation fails (once, or from then on), for 20 values of N
+    spread over the whole run, on both paths: exit 4 with a message about
+    memory, or success when the failure was absorbed (sorting falls back,
+    sweeps are best effort); never a crash, and cleanup holds."""
+    src = synth(100_000, "las")
+    seed = random.randrange(1 << 30)
+    seed = int(os.environ.get("WPD_FAULT_SEED", seed))
+    print("  seed %d (WPD_FAULT_SEED=%d reproduces)" % (seed, seed))
+    rng = random.Random(seed)
+    outcomes = {}
+    for path_name, extra in PATHS.items():
+        total = allocation_count(Case(src, "out.las", 5_000, extra), {})
+        assert total > 50, total
+        for i in range(20):
+            lo, hi = i * total // 20 + 1, (i + 1) * total // 20
+            n = rng.randint(lo, max(lo, hi))
+            always = i % 2
+            what = "%s, allocation %d of %d fails%s" % (path_name, n, total,
+                                                        " and every later one" if always else "")
+            c = Case(src, "out.las", 5_000, extra)
+            c.run(env=preload(MALLOC_FAIL=n, MALLOC_ALWAYS=always))
+            rc = c.p.returncode
+            outcomes[rc] = outcomes.get(rc, 0) + 1
+            assert rc >= 0, "%s: killed by signal %d: %s" % (what, -rc, c.p.stderr)
+            if rc == 0:
+                c.check_succeeded(what)
+                os.remove(c.out)
+                continue
+            lines = [l for l in c.p.stderr.splitlines() if l.strip()]
+            assert rc == 4, "%s: exit %d: %s" % (what, rc, c.p.stderr.strip())
+            # libgomp prints its own line ("libgomp: Out of memory ...")
+            # before exiting; wpd turns that exit into 4.
+            assert len(lines) == 1 and "memory" in lines[0].lower(), (what, c.p.stderr)
+            c.check_clean(what)
+    print("  exit codes over 40 runs: %s" % sorted(outcomes.items()))
+    assert outcomes.get(4, 0) >= 20, outcomes
+
+
+def test_one_large_allocation_failing_is_exit_4():
+    src = synth(200_000, "las")
+    for path_name, extra in PATHS.items():
+        for above in (256 << 10, 4 << 20):
+            c = Case(src, "out.las", 5_000, extra)
+            c.run(env=preload(MALLOC_ABOVE=above))
+            c.check_failed("%s, allocations >= %d bytes fail" % (path_name, above), 4,
+                           says=("memory",))
+
+
+# ------------------------------------------------------------------ signals
+
+def timed_baseline(args):
+    t = time.monotonic()
+    p = run(args)
+    assert p.returncode == 0, p.stderr
+    return time.monotonic() - t
+
+
+def test_sigterm_and_sigint_at_random_moments_leave_nothing():
+    src = synth(1_000_000, "las")
+    seed = int(os.environ.get("WPD_FAULT_SEED", random.randrange(1 << 30)))
+    rng = random.Random(seed)
+    c = Case(src, "out.las", 20_000, ["--min-tiles", 8])
+    base = timed_baseline(c.args)
+    os.remove("out.las")
+    print("  seed %d, uninterrupted run %.2f s" % (seed, base))
+    interrupted = 0
+    for k in range(8):
+        sig = (signal.SIGTERM, signal.SIGINT)[k % 2]
+        delay = rng.uniform(0.02, 0.95) * base
+        what = "%s after %.3f s" % (sig.name, delay)
+        p = subprocess.Popen([WPD, *map(str, c.args)], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True)
+        time.sleep(delay)
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+        if p.returncode == 0:  # finished first: then it must be complete
+            assert point_count("out.las") == 20_000, what
+            os.remove("out.las")
+            continue
+        assert p.returncode == -sig, "%s: exit %d: %s" % (what, p.returncode, err)
+        interrupted += 1
+        c.check_clean(what)
+    assert interrupted >= 5, "only %d of 8 runs were interrupted" % interrupted
+
+
+def test_sigkill_at_random_moments_then_the_next_run_sweeps():
+    src = synth(1_000_000, "las")
+    seed = int(os.environ.get("WPD_FAULT_SEED", random.randrange(1 << 30)))
+    rng = random.Random(seed)
+    c = Case(src, "out.las", 20_000, ["--min-tiles", 8])
+    base = timed_baseline(c.args)
+    os.remove("out.las")
+    print("  seed %d, uninterrupted run %.2f s" % (seed, base))
+    for k in range(4):
+        delay = rng.uniform(0.05, 0.95) * base
+        what = "SIGKILL after %.3f s" % delay
+        p = subprocess.Popen([WPD, *map(str, c.args)], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        p.kill()
+        p.wait(timeout=60)
+        if os.path.exists("out.las"):  # renamed into place: complete
+            assert point_count("out.las") == 20_000, what
+        # the next run replaces it and removes what the dead one left
+        p2 = run([*c.args, "--force"])
+        assert p2.returncode == 0, "%s, next run: %s" % (what, p2.stderr)
+        assert point_count("out.las") == 20_000, what
+        assert leftovers(".", "spill") == [], (what, leftovers(".", "spill"))
+        assert os.listdir("spill") == [], what
+        os.remove("out.las")
+    for path, h in c.before.items():
+        assert sha256(path) == h
