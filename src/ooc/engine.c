@@ -3,6 +3,7 @@
 
 #include <math.h>
 #include <omp.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -94,13 +95,13 @@ static size_t store_count(const engine *e)
 
 /* ------------------------------------------------------------------ tiling */
 
-/* Smallest distance from p to a face of t's box, from inside. */
-static double inside_margin(const wpd_tile *t, const double p[3])
+/* Whether p, inside t's box, is at least m from each of its faces. */
+static int deep_inside(const wpd_tile *t, const double p[3], double m)
 {
-    double m = INFINITY;
     for (int a = 0; a < 3; a++)
-        m = fmin(m, fmin(p[a] - t->box_lo[a], t->box_hi[a] - p[a]));
-    return m;
+        if (p[a] - t->box_lo[a] < m || t->box_hi[a] - p[a] < m)
+            return 0;
+    return 1;
 }
 
 /* One batch's points grouped by destination tile. */
@@ -108,41 +109,47 @@ typedef struct routing {
     size_t cap, n;
     uint32_t *tile, *point;   /* [n] entries: destination, point in batch */
     uint8_t *halo;
-    uint32_t *order;          /* entries sorted by tile (counting sort) */
-    size_t *start;            /* [ntiles + 1] */
-    uint64_t *gid;            /* gathered columns of one tile group */
+    size_t *start, *fill;     /* [ntiles + 1] first entry of each tile's group */
+    uint64_t *gid;            /* [n] the entries' columns, grouped by tile */
     double *xyz;
     uint8_t *hflag;
 } routing;
 
 static void routing_free(routing *r)
 {
-    free(r->tile); free(r->point); free(r->halo); free(r->order); free(r->start);
+    free(r->tile); free(r->point); free(r->halo); free(r->start); free(r->fill);
     free(r->gid); free(r->xyz); free(r->hflag);
     memset(r, 0, sizeof *r);
 }
 
-static int routing_reserve(routing *r, size_t cap, size_t batch, int ntiles)
+/* Room for cap entries. Returns 0, or -1 when out of memory (r stays
+ * valid for routing_free). */
+static int routing_reserve(routing *r, size_t cap, int ntiles)
 {
     if (cap <= r->cap)
         return 0;
-    routing old = *r;
-    r->cap = cap;
-    r->tile = realloc(old.tile, cap * sizeof *r->tile);
-    r->point = realloc(old.point, cap * sizeof *r->point);
-    r->halo = realloc(old.halo, cap);
-    r->order = realloc(old.order, cap * sizeof *r->order);
+    void *p[6] = {realloc(r->tile, cap * sizeof *r->tile),
+                  realloc(r->point, cap * sizeof *r->point), realloc(r->halo, cap),
+                  realloc(r->gid, cap * sizeof *r->gid),
+                  realloc(r->xyz, 3 * cap * sizeof *r->xyz), realloc(r->hflag, cap)};
+    /* Keep whatever was reallocated, so routing_free frees it. */
+    if (p[0]) r->tile = p[0];
+    if (p[1]) r->point = p[1];
+    if (p[2]) r->halo = p[2];
+    if (p[3]) r->gid = p[3];
+    if (p[4]) r->xyz = p[4];
+    if (p[5]) r->hflag = p[5];
     if (!r->start)
         r->start = malloc(((size_t)ntiles + 1) * sizeof *r->start);
-    if (!r->gid) {
-        r->gid = malloc(batch * sizeof *r->gid);
-        r->xyz = malloc(3 * batch * sizeof *r->xyz);
-        r->hflag = malloc(batch);
-    }
-    return r->tile && r->point && r->halo && r->order && r->start && r->gid && r->xyz &&
-                   r->hflag
-               ? 0
-               : -1;
+    if (!r->fill)
+        r->fill = malloc(((size_t)ntiles + 1) * sizeof *r->fill);
+    for (int i = 0; i < 6; i++)
+        if (!p[i])
+            return -1;
+    if (!r->start || !r->fill)
+        return -1;
+    r->cap = cap;
+    return 0;
 }
 
 static int route_point(routing *r, uint32_t tile, uint32_t point, uint8_t halo)
@@ -161,103 +168,204 @@ static int route_batch(const engine *e, const double *fxyz, size_t n, routing *r
 {
     r->n = 0;
     const wpd_plan *pl = &e->plan;
+    double halo2 = pl->halo * pl->halo;
     for (size_t i = 0; i < n; i++) {
         const double *p = fxyz + 3 * i;
         int home = pl->cell_tile[wpd_scan_cell_of(&e->scan, p)];
         const wpd_tile *t = &pl->tiles[home];
         if (route_point(r, (uint32_t)home, (uint32_t)i, 0))
             return -1;
-        if (inside_margin(t, p) >= pl->halo)
+        if (deep_inside(t, p, pl->halo))
             continue;
         for (int j = 0; j < t->nadj; j++)
-            if (wpd_tile_distance(&pl->tiles[t->adj[j]], p) < pl->halo &&
+            if (wpd_tile_distance2(&pl->tiles[t->adj[j]], p) < halo2 &&
                 route_point(r, (uint32_t)t->adj[j], (uint32_t)i, 1))
                 return -1;
     }
     return 0;
 }
 
-/* Stable counting sort of the entries by tile. Returns 0, or -1 when out
- * of memory. */
-static int group_by_tile(routing *r, int ntiles)
+/* Groups the entries by tile (a stable counting sort) and gathers their
+ * global index, frame coordinates and halo flag in that order. */
+static void group_by_tile(routing *r, int ntiles, const double *fxyz, uint64_t first_gid)
 {
-    size_t *fill = malloc((size_t)ntiles * sizeof *fill);
-    if (!fill)
-        return -1;
     memset(r->start, 0, ((size_t)ntiles + 1) * sizeof *r->start);
     for (size_t i = 0; i < r->n; i++)
         r->start[r->tile[i] + 1]++;
     for (int t = 0; t < ntiles; t++)
         r->start[t + 1] += r->start[t];
-    memcpy(fill, r->start, (size_t)ntiles * sizeof *fill);
-    for (size_t i = 0; i < r->n; i++)
-        r->order[fill[r->tile[i]]++] = (uint32_t)i;
-    free(fill);
-    return 0;
+    memcpy(r->fill, r->start, (size_t)ntiles * sizeof *r->fill);
+    for (size_t i = 0; i < r->n; i++) {
+        size_t k = r->fill[r->tile[i]]++, p = r->point[i];
+        r->gid[k] = first_gid + p;
+        memcpy(r->xyz + 3 * k, fxyz + 3 * p, 3 * sizeof *r->xyz);
+        r->hflag[k] = r->halo[i];
+    }
 }
 
-static int append_groups(engine *e, routing *r, const double *fxyz, uint64_t first_gid,
-                         wpd_error *err)
+/* Appends the grouped entries to their tiles' spill. */
+static int append_groups(engine *e, const routing *r, wpd_error *err)
 {
-    if (group_by_tile(r, e->plan.ntiles))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
     for (int t = 0; t < e->plan.ntiles; t++) {
-        size_t m = 0;
-        for (size_t k = r->start[t]; k < r->start[t + 1]; k++, m++) {
-            size_t entry = r->order[k], i = r->point[entry];
-            r->gid[m] = first_gid + i;
-            memcpy(r->xyz + 3 * m, fxyz + 3 * i, 3 * sizeof *r->xyz);
-            r->hflag[m] = r->halo[entry];
-        }
-        if (m && wpd_spill_append(e->spill, t, r->gid, r->xyz, r->hflag, NULL, m, err))
+        size_t b = r->start[t], m = r->start[t + 1] - b;
+        if (m && wpd_spill_append(e->spill, t, r->gid + b, r->xyz + 3 * b, r->hflag + b, NULL,
+                                  m, err))
             return -1;
     }
     return 0;
 }
 
+/* The tile pass runs on every thread: each takes the next batch (reading
+ * is serial, under a lock), converts and routes it on its own, then waits
+ * for its turn to append: batches reach the spill in reading order, so
+ * every tile holds its points in global-index order, whatever the threads.
+ * Routing one batch overlaps reading and appending the others. */
+typedef struct tiler {
+    engine *e;
+    pthread_mutex_t mu;
+    pthread_cond_t turn;      /* next_append moved on */
+    uint64_t next_read;       /* sequence number of the next batch read */
+    uint64_t next_append;     /* sequence number whose turn it is to append */
+    uint64_t next_gid;        /* global index of the next point read */
+    int stop;                 /* end of input, or a failure */
+    int failed;
+    wpd_error err;            /* the first failure */
+} tiler;
+
+/* One thread's buffers. */
+typedef struct tiler_lane {
+    wpd_batch batch;
+    double *fxyz;
+    routing r;
+} tiler_lane;
+
+enum { TILE_BATCH = 65536 };
+
+static int lane_init(tiler_lane *l, const engine *e)
+{
+    memset(l, 0, sizeof *l);
+    l->fxyz = malloc(3 * TILE_BATCH * sizeof *l->fxyz);
+    /* Halo copies: a point lands in at most a few tiles; grow on demand. */
+    return l->fxyz && wpd_batch_init(&l->batch, TILE_BATCH, e->record_size) == 0 &&
+                   routing_reserve(&l->r, 2 * TILE_BATCH, e->plan.ntiles) == 0
+               ? 0
+               : -1;
+}
+
+static void lane_free(tiler_lane *l)
+{
+    wpd_batch_free(&l->batch);
+    routing_free(&l->r);
+    free(l->fxyz);
+}
+
+static void tiler_fail(tiler *tl, const wpd_error *err)
+{
+    pthread_mutex_lock(&tl->mu);
+    if (!tl->failed)
+        tl->err = *err;
+    tl->failed = tl->stop = 1;
+    pthread_mutex_unlock(&tl->mu);
+}
+
+/* Reads the next batch into l; sets its sequence number and first global
+ * index. Returns the points read, 0 at the end or after a failure. */
+static long lane_read(tiler *tl, tiler_lane *l, uint64_t *seq, uint64_t *first_gid)
+{
+    long got = 0;
+    wpd_error err = {0};
+    pthread_mutex_lock(&tl->mu);
+    if (!tl->stop) {
+        got = wpd_cloud_read(tl->e->cloud, &l->batch, NULL, &err);
+        *seq = tl->next_read++;
+        *first_gid = tl->next_gid;
+        if (got > 0)
+            tl->next_gid += (uint64_t)got;
+        else
+            tl->stop = 1;
+    }
+    pthread_mutex_unlock(&tl->mu);
+    if (got < 0) {
+        tiler_fail(tl, &err);
+        return 0;
+    }
+    return got;
+}
+
+/* Converts to frame coordinates, routes and groups the batch in l. */
+static int lane_route(const engine *e, tiler_lane *l, uint64_t first_gid)
+{
+    const wpd_batch *b = &l->batch;
+    for (size_t i = 0; i < b->n; i++)
+        for (int a = 0; a < 3; a++)
+            l->fxyz[3 * i + a] = b->xyz[3 * i + a] - e->scan.origin[a];
+    while (route_batch(e, l->fxyz, b->n, &l->r))
+        if (routing_reserve(&l->r, 2 * l->r.cap, e->plan.ntiles))
+            return -1;
+    group_by_tile(&l->r, e->plan.ntiles, l->fxyz, first_gid);
+    return 0;
+}
+
+/* Appends the routed batch seq once every earlier batch is in. */
+static void lane_append(tiler *tl, tiler_lane *l, uint64_t seq)
+{
+    engine *e = tl->e;
+    pthread_mutex_lock(&tl->mu);
+    while (tl->next_append != seq)
+        pthread_cond_wait(&tl->turn, &tl->mu);
+    int failed = tl->failed;
+    pthread_mutex_unlock(&tl->mu);
+    wpd_error err = {0};
+    if (!failed && append_groups(e, &l->r, &err))
+        tiler_fail(tl, &err);
+    wpd_progress_add(e->opt->progress, l->batch.n);
+    wpd_test_stall("tile");
+    pthread_mutex_lock(&tl->mu);
+    tl->next_append++;
+    pthread_cond_broadcast(&tl->turn);
+    pthread_mutex_unlock(&tl->mu);
+}
+
+static void tiler_lane_run(tiler *tl)
+{
+    tiler_lane l;
+    if (lane_init(&l, tl->e)) {
+        wpd_error err;
+        wpd_fail(&err, WPD_E_MEMORY, "out of memory for tiling");
+        tiler_fail(tl, &err);
+        /* A lane that never reads takes no turn: nobody waits for it. */
+        lane_free(&l);
+        return;
+    }
+    uint64_t seq = 0, first_gid = 0;
+    while (lane_read(tl, &l, &seq, &first_gid) > 0) {
+        if (lane_route(tl->e, &l, first_gid)) {
+            wpd_error err;
+            wpd_fail(&err, WPD_E_MEMORY, "out of memory for tiling");
+            tiler_fail(tl, &err);
+        }
+        lane_append(tl, &l, seq); /* takes its turn even after a failure */
+    }
+    lane_free(&l);
+}
+
 static int tile_pass(engine *e, wpd_error *err)
 {
-    enum { BATCH = 65536 };
-    wpd_batch b;
-    routing r = {0};
-    double *fxyz = malloc(3 * BATCH * sizeof *fxyz);
-    int rc = -1;
-    if (!fxyz || wpd_batch_init(&b, BATCH, e->record_size)) {
-        free(fxyz);
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
-    }
-    /* Halo copies: a point lands in at most a few tiles; grow on demand. */
-    if (routing_reserve(&r, 2 * BATCH, BATCH, e->plan.ntiles)) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
-        goto done;
-    }
-    uint64_t gid = 0;
-    long got;
+    tiler tl = {.e = e};
     if (wpd_cloud_rewind(e->cloud, err))
-        goto done;
-    while ((got = wpd_cloud_read(e->cloud, &b, NULL, err)) > 0) {
-        for (size_t i = 0; i < b.n; i++)
-            for (int a = 0; a < 3; a++)
-                fxyz[3 * i + a] = b.xyz[3 * i + a] - e->scan.origin[a];
-        while (route_batch(e, fxyz, b.n, &r))
-            if (routing_reserve(&r, 2 * r.cap, BATCH, e->plan.ntiles)) {
-                wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
-                goto done;
-            }
-        if (append_groups(e, &r, fxyz, gid, err))
-            goto done;
-        gid += b.n;
-        wpd_progress_add(e->opt->progress, b.n);
-        wpd_test_stall("tile");
+        return -1;
+    pthread_mutex_init(&tl.mu, NULL);
+    pthread_cond_init(&tl.turn, NULL);
+#pragma omp parallel num_threads(e->threads)
+    tiler_lane_run(&tl);
+    pthread_mutex_destroy(&tl.mu);
+    pthread_cond_destroy(&tl.turn);
+    if (tl.failed) {
+        if (err)
+            *err = tl.err;
+        return -1;
     }
-    if (got < 0 || wpd_spill_finish(e->spill, err))
-        goto done;
-    rc = 0;
-done:
-    wpd_batch_free(&b);
-    routing_free(&r);
-    free(fxyz);
-    return rc;
+    return wpd_spill_finish(e->spill, err);
 }
 
 /* ------------------------------------------------------------------ Poisson passes */

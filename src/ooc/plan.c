@@ -122,17 +122,6 @@ fail:
     return -1;
 }
 
-double wpd_tile_distance(const wpd_tile *t, const double p[3])
-{
-    double d2 = 0;
-    for (int a = 0; a < 3; a++) {
-        double d = p[a] < t->box_lo[a] ? t->box_lo[a] - p[a]
-                   : p[a] > t->box_hi[a] ? p[a] - t->box_hi[a] : 0;
-        d2 += d * d;
-    }
-    return sqrt(d2);
-}
-
 static int boxes_near(const wpd_tile *a, const wpd_tile *b, double halo)
 {
     for (int k = 0; k < 3; k++)

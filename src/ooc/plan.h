@@ -12,6 +12,7 @@
 #ifndef WPD_PLAN_H
 #define WPD_PLAN_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -42,8 +43,24 @@ typedef struct wpd_plan {
 int wpd_plan_tiles(const wpd_scan *scan, uint64_t max_points, int min_tiles, double halo,
                    wpd_plan *out, wpd_error *err);
 
+/* Squared distance from frame point p to tile t's box (0 inside). Inline:
+ * the tiler asks it for every point near a border. */
+static inline double wpd_tile_distance2(const wpd_tile *t, const double p[3])
+{
+    double d2 = 0;
+    for (int a = 0; a < 3; a++) {
+        double d = p[a] < t->box_lo[a] ? t->box_lo[a] - p[a]
+                   : p[a] > t->box_hi[a] ? p[a] - t->box_hi[a] : 0;
+        d2 += d * d;
+    }
+    return d2;
+}
+
 /* Distance from frame point p to tile t's box (0 inside). */
-double wpd_tile_distance(const wpd_tile *t, const double p[3]);
+static inline double wpd_tile_distance(const wpd_tile *t, const double p[3])
+{
+    return sqrt(wpd_tile_distance2(t, p));
+}
 
 void wpd_plan_free(wpd_plan *p);
 

@@ -7,17 +7,6 @@
 
 #include "wpd/ladder.h"
 
-size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3])
-{
-    size_t c[3];
-    for (int a = 0; a < 3; a++) {
-        double f = p[a] * s->inv_cell;
-        long i = f < 0 ? 0 : (long)f;
-        c[a] = (size_t)(i >= s->dim[a] ? s->dim[a] - 1 : i);
-    }
-    return c[0] + (size_t)s->dim[0] * (c[1] + (size_t)s->dim[1] * c[2]);
-}
-
 /* Both passes compute sums and sets, which do not depend on the order of
  * the points: each thread reads whole batches in turn (the read itself is
  * serial, under a lock) and counts them into its own counter while the

@@ -45,8 +45,18 @@ typedef struct wpd_scan {
 int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *progress,
                  wpd_scan *out, wpd_error *err);
 
-/* Density grid cell of frame point p (clamped into the grid). */
-size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3]);
+/* Density grid cell of frame point p (clamped into the grid). Inline: the
+ * scan and the tiler ask it for every point. */
+static inline size_t wpd_scan_cell_of(const wpd_scan *s, const double p[3])
+{
+    size_t c[3];
+    for (int a = 0; a < 3; a++) {
+        double f = p[a] * s->inv_cell;
+        long i = f < 0 ? 0 : (long)f;
+        c[a] = (size_t)(i >= s->dim[a] ? s->dim[a] - 1 : i);
+    }
+    return c[0] + (size_t)s->dim[0] * (c[1] + (size_t)s->dim[1] * c[2]);
+}
 
 void wpd_scan_free(wpd_scan *s);
 
