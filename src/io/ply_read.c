@@ -31,6 +31,7 @@
 #define PLY_HEADER_READ (64u << 10) /* header bytes read at a time */
 #define PLY_LINE_MAX (16u << 10)    /* longest header line */
 #define PLY_STREAM_BUF (1u << 20)   /* private buffer for ascii and skipping */
+#define PLY_STREAM_MIN (4u << 10)   /* smallest one: > PLY_TOKEN_MAX + any item */
 #define PLY_CHUNK_BYTES (1u << 20)  /* records read and decoded at a time */
 #define PLY_TOKEN_MAX 1024          /* longest ascii token */
 #define PLY_LINE_TOKENS 6           /* most tokens on a header line */
@@ -149,12 +150,20 @@ static int64_t read_int_field(const uint8_t *p, wpd_type t, int big_endian)
 
 /* ------------------------------------------------------------------ stream */
 
-static int stream_init(ply_stream *s, int fd, uint64_t file_size, wpd_error *err,
-                       const char *path)
+/* The buffer holds the whole body when that is smaller than PLY_STREAM_BUF
+ * (one byte more, so that the read which meets the end of the file fits
+ * and sets eof): a small file does not cost a 1 MiB allocation. It is never
+ * smaller than PLY_STREAM_MIN, so a full buffer always holds a whole token
+ * or item even if the file grew after it was opened. */
+static int stream_init(ply_stream *s, int fd, uint64_t file_size, uint64_t body_offset,
+                       wpd_error *err, const char *path)
 {
     s->fd = fd;
     s->file_size = file_size;
-    s->cap = PLY_STREAM_BUF;
+    uint64_t body = file_size > body_offset ? file_size - body_offset : 0;
+    s->cap = body + 1 < PLY_STREAM_BUF ? (size_t)body + 1 : PLY_STREAM_BUF;
+    if (s->cap < PLY_STREAM_MIN)
+        s->cap = PLY_STREAM_MIN;
     s->buf = malloc(s->cap + 1);
     if (!s->buf)
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", path);
@@ -1262,7 +1271,7 @@ static int open_reader(wpd_reader *r, ply_reader *pr, wpd_error *err)
         return -1;
     r->hdr.format = WPD_FMT_PLY;
     r->hdr.point_count = pr->count;
-    if (stream_init(&pr->st, r->fd, r->hdr.file_size, err, path))
+    if (stream_init(&pr->st, r->fd, r->hdr.file_size, pr->body_offset, err, path))
         return -1;
     if (pr->enc == WPD_PLY_ASCII) {
         pr->c_locale = newlocale(LC_NUMERIC_MASK, "C", (locale_t)0);
