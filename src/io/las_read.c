@@ -543,6 +543,7 @@ static int add_extra_dims(wpd_header *h, uint32_t start, uint32_t end, wpd_error
     const wpd_vlr *ebv = find_extra_bytes_vlr(&h->las);
     uint32_t pos = start;
     uint64_t ndesc = ebv ? ebv->length / LAS_EXTRA_BYTES_DESCRIPTOR_SIZE : 0;
+    uint32_t first_described = h->schema.ndims;
     for (uint64_t i = 0; i < ndesc; i++) {
         uint32_t used = 0;
         if (add_extra_descriptor(h, ebv->data + i * LAS_EXTRA_BYTES_DESCRIPTOR_SIZE, i, pos,
@@ -550,12 +551,17 @@ static int add_extra_dims(wpd_header *h, uint32_t start, uint32_t end, wpd_error
             return -1;
         pos += used;
     }
+    /* The generated names can clash only with a descriptor's name of the
+     * same form (found by fuzzing); only then is each one checked. */
+    int clash = 0;
+    for (uint32_t i = first_described; i < h->schema.ndims; i++)
+        clash |= !strncmp(h->schema.dims[i].name, "extra_byte_", 11);
     for (; pos < end; pos++) {
         char name[WPD_DIM_NAME_MAX], unique[WPD_DIM_NAME_MAX];
         snprintf(name, sizeof name, "extra_byte_%u", pos - start);
-        /* A descriptor may already use the name (found by fuzzing). */
-        unique_dim_name(&h->schema, name, pos, unique);
-        if (wpd_schema_add(&h->schema, unique, WPD_U8, pos) < 0)
+        if (clash)
+            unique_dim_name(&h->schema, name, pos, unique);
+        if (wpd_schema_add(&h->schema, clash ? unique : name, WPD_U8, pos) < 0)
             break; /* schema full: the bytes stay in the record, unnamed */
     }
     return 0;
