@@ -260,6 +260,28 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
     return sqrt(d2);
 }
 
+/* A cheaper test that accepts most samples as nearest_with_spacing would:
+ * with d0 the distance from p to its nearest input point q and d1..d6 to
+ * the next six, each of q's six nearest neighbours x has
+ * |q x| >= |p x| - d0, and the six nearest to p other than q are no
+ * farther from p than they are, so spacing(q) >= mean(d1..d6) - d0. When
+ * d0 is below that bound the sample passes the exact test too; otherwise
+ * the exact test decides. One query instead of two (the margin covers
+ * rounding). */
+static int surely_near(const wpd_grid *surface, const double p[3])
+{
+    uint32_t nb[SPACING_K + 1];
+    double d2[SPACING_K + 1];
+    int got = wpd_knn_slots(surface, p, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
+    if (got < SPACING_K + 1)
+        return 0;
+    double d0 = sqrt(d2[0]), mean = 0;
+    for (int j = 1; j <= SPACING_K; j++)
+        mean += sqrt(d2[j]);
+    mean /= SPACING_K;
+    return d0 <= (mean - d0) * (1 - 1e-9);
+}
+
 /* p rounded to the output's lattice (multiples of res per axis in the
  * block frame, which starts at an input point); unchanged where res is 0. */
 static void round_to_output(const double res[3], const double p[3], double out[3])
@@ -309,6 +331,10 @@ static size_t clamp_to_surface(const wpd_grid *surface, double *pos, const doubl
             uint32_t near;
             double stored[3], spacing = 0;
             round_to_output(res, p, stored);
+            if (surely_near(surface, stored)) {
+                memcpy(p, stored, sizeof stored);
+                break;
+            }
             double d = nearest_with_spacing(surface, stored, &near, &spacing);
             if (d <= spacing) {
                 memcpy(p, stored, sizeof stored);
