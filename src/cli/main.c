@@ -70,8 +70,15 @@ static int dispatch(int argc, char **argv)
      * glibc's defaults each one is a fresh mmap whose pages are faulted in
      * and zeroed again (a quarter of the engine's time on 10 M points).
      * Keeping freed memory in the heap makes them reusable; the peak, which
-     * the memory budget bounds, does not change. */
+     * the memory budget bounds, does not change. The same holds for the
+     * heap's top (trimmed back to the system at every large free by
+     * default) and for the per-thread arenas, whose heaps are at most 64 MB
+     * so that larger tile arrays are mmapped after all: one arena, never
+     * trimmed. Measured on 100 M -> 1 M points, 2 threads: system time
+     * 6.7 s -> 3.2 s, wall 23.6 s -> 21.0 s. */
     mallopt(M_MMAP_THRESHOLD, 256 << 20);
+    mallopt(M_TRIM_THRESHOLD, 1 << 30);
+    mallopt(M_ARENA_MAX, 1);
     if (argc < 2) {
         usage(stderr);
         return WPD_E_USAGE;
