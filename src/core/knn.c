@@ -10,6 +10,8 @@ typedef struct knn_heap {
     int k, cnt;
     uint32_t self;
     double max_d2;
+    double bound;   /* no point farther than this can enter: max_d2, or the
+                       k-th distance once full */
     double d2[WPD_KNN_MAX];
     uint32_t id[WPD_KNN_MAX];
     uint32_t slot[WPD_KNN_MAX];
@@ -20,9 +22,10 @@ static inline int better(double da, uint32_t ia, double db, uint32_t ib)
     return da < db || (da == db && ia < ib);
 }
 
+/* Offers a point with d2 <= h->bound (farther ones cannot enter). */
 static inline void offer(knn_heap *h, double d2, uint32_t id, uint32_t slot)
 {
-    if (d2 > h->max_d2 || id == h->self)
+    if (id == h->self)
         return;
     if (h->cnt == h->k && !better(d2, id, h->d2[h->k - 1], h->id[h->k - 1]))
         return;
@@ -36,15 +39,19 @@ static inline void offer(knn_heap *h, double d2, uint32_t id, uint32_t slot)
     h->d2[j] = d2;
     h->id[j] = id;
     h->slot[j] = slot;
+    if (h->cnt == h->k && h->d2[h->k - 1] < h->bound)
+        h->bound = h->d2[h->k - 1];
 }
 
 static void scan_slots(const wpd_grid *g, const double q[3], uint32_t b, uint32_t e,
                        knn_heap *h)
 {
-    for (uint32_t s = b; s < e; s++) {
-        const double *p = g->xyz + 3 * (size_t)s;
+    const double *p = g->xyz + 3 * (size_t)b;
+    for (uint32_t s = b; s < e; s++, p += 3) {
         double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-        offer(h, dx * dx + dy * dy + dz * dz, g->id[s], s);
+        double d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 <= h->bound) /* most points of a scanned box are rejected here */
+            offer(h, d2, g->id[s], s);
     }
 }
 
@@ -88,6 +95,7 @@ static int knn_search(const wpd_grid *g, const double q[3], int k, uint32_t self
         rho = max_dist;
     for (;;) {
         h->cnt = 0;
+        h->bound = h->max_d2;
         if (g->n == 0)
             return 0;
         int all = scan_box(g, q, rho, h);

@@ -31,8 +31,10 @@ typedef struct wpd_voronoi_cell {
     double centroid[2];                  /* its area centroid */
     double vertex_mean[2];               /* mean of its vertices */
     int nverts;
-    double vx[WPD_VORONOI_MAX_VERTS], vy[WPD_VORONOI_MAX_VERTS]; /* counter-clockwise */
-    double edge[WPD_VORONOI_MAX_NB];     /* edge length on each bisector */
+    double vx[WPD_VORONOI_MAX_VERTS], vy[WPD_VORONOI_MAX_VERTS]; /* counter-clockwise,
+                                                                    [nverts] */
+    double edge[WPD_VORONOI_MAX_NB];     /* [m] edge length on each bisector; the
+                                            entries past m are not written */
 } wpd_voronoi_cell;
 
 /* Computes the cell of the origin among m (<= WPD_VORONOI_MAX_NB) neighbours
