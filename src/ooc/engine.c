@@ -31,10 +31,12 @@ enum {
 
 size_t wpd_engine_bytes_per_tile_point(uint32_t record_size)
 {
-    /* coordinates, index and halo flag 33, Poisson scratch (priority,
-     * order, grid copy) ~80, surface grid ~45; records are not in the tiles */
+    /* The tile's coordinates, index and halo flag (33), plus the larger of
+     * what the two passes over it add: Poisson (candidate and kept lists 8,
+     * grid copy and slot ids 28, priority, band, state and order 14, cells
+     * ~8) or smoothing (surface grid ~40). Records are not in the tiles. */
     (void)record_size;
-    return 160;
+    return 128;
 }
 
 size_t wpd_engine_bytes_per_sample(uint32_t record_size)
