@@ -50,21 +50,29 @@ long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *
                         size_t count, size_t target, double r_lo, uint64_t seed, int threads,
                         uint32_t *out, double *r_out, int *passes, wpd_error *err)
 {
-    uint32_t *kept = malloc((count ? count : 1) * sizeof *kept);
-    if (!kept)
-        return wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory pruning %zu samples", count);
     for (size_t i = 0; i < count; i++)
         out[i] = cand ? cand[i] : (uint32_t)i;
+    if (count == 0)
+        return 0;
+    /* Count falls roughly as r^-2: aim just above target first. */
+    double r_first = r_lo * sqrt((double)count / (1.025 * (double)target));
+    double r_hi = r_lo * sqrt((double)count / (double)target) * 1.25;
+    /* One grid and one set of priorities for all the passes. */
+    wpd_poisson_input in = {xyz, gid, NULL, cand, count, NULL, 0, r_first, seed, threads};
+    uint32_t *kept = malloc(count * sizeof *kept);
+    wpd_poisson *ps = kept ? wpd_poisson_prepare(&in, err) : NULL;
+    if (!ps) {
+        free(kept);
+        return kept ? -1 : wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory pruning %zu samples",
+                                    count);
+    }
     size_t best = count;
     *r_out = r_lo;
-    /* Count falls roughly as r^-2: aim just above target first. */
-    double r_hi = r_lo * sqrt((double)count / (double)target) * 1.25;
     for (int it = 0; it < 30; it++) {
-        double r = it == 0 ? r_lo * sqrt((double)count / (1.025 * (double)target))
-                           : 0.5 * (r_lo + r_hi);
-        wpd_poisson_input in = {xyz, gid, NULL, cand, count, NULL, 0, r, seed, threads};
-        long m = wpd_poisson_pass(&in, kept, err);
+        double r = it == 0 ? r_first : 0.5 * (r_lo + r_hi);
+        long m = wpd_poisson_run(ps, r, kept, err);
         if (m < 0) {
+            wpd_poisson_release(ps);
             free(kept);
             return -1;
         }
@@ -81,6 +89,7 @@ long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *
         if ((double)m <= (1 + WPD_COUNT_TOLERANCE) * (double)target)
             break;
     }
+    wpd_poisson_release(ps);
     free(kept);
     return (long)best;
 }
