@@ -38,10 +38,20 @@ typedef struct pass_state {
     size_t hit_cap;
 } pass_state;
 
-/* Conflict threshold (squared) between a point of radius rp and slot s. */
-static inline double conflict2(const pass_state *ps, double rp, uint32_t s)
+/* Conflict threshold (squared) between a point of radius rp and slot s;
+ * full2 is the threshold against a point of radius r, the only one when no
+ * point is a sharp-feature point (computed once per scan). */
+static inline double conflict2(const pass_state *ps, double rp, uint32_t s, double full2)
 {
-    double d = 0.5 * (rp + (ps->half && ps->half[s] ? 0.5 * ps->r : ps->r));
+    if (!ps->half || !ps->half[s])
+        return full2;
+    double d = 0.5 * (rp + 0.5 * ps->r);
+    return d * d;
+}
+
+static inline double full_conflict2(const pass_state *ps, double rp)
+{
+    double d = 0.5 * (rp + ps->r);
     return d * d;
 }
 
@@ -59,13 +69,14 @@ static void remove_around(const pass_state *ps, const double p[3], double rp)
     int64_t lo[3], hi[3];
     if (!wpd_grid_box(g, p, 0.5 * (rp + ps->r), lo, hi))
         return;
+    double full2 = full_conflict2(ps, rp);
     for (int64_t b = lo[1]; b <= hi[1]; b++)
         for (int64_t a = lo[0]; a <= hi[0]; a++) {
             uint32_t sb, se;
             wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
             for (uint32_t s = sb; s < se; s++)
                 if ((ps->state[s] & STATUS_MASK) == UNDECIDED &&
-                    dist2(g->xyz + 3 * (size_t)s, p) < conflict2(ps, rp, s))
+                    dist2(g->xyz + 3 * (size_t)s, p) < conflict2(ps, rp, s, full2))
                     ps->state[s] |= REMOVED;
         }
 }
@@ -84,6 +95,7 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
     uint8_t waiting = ps->state[t]; /* undecided, same band */
     size_t found = 0;
     int64_t lo[3], hi[3];
+    double full2 = full_conflict2(ps, rt);
     if (wpd_grid_box(g, p, 0.5 * (rt + ps->r), lo, hi))
         for (int64_t b = lo[1]; b <= hi[1]; b++)
             for (int64_t a = lo[0]; a <= hi[0]; a++) {
@@ -92,7 +104,7 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
                 for (uint32_t s = sb; s < se; s++) {
                     uint8_t st = ps->state[s];
                     if ((st & STATUS_MASK) != UNDECIDED || s == t ||
-                        dist2(g->xyz + 3 * (size_t)s, p) >= conflict2(ps, rt, s))
+                        dist2(g->xyz + 3 * (size_t)s, p) >= conflict2(ps, rt, s, full2))
                         continue;
                     if (st == waiting && ps->prio[s] < pt)
                         return s;
