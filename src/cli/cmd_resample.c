@@ -372,6 +372,15 @@ static int check_outputs(char **inputs, int ninputs, const resample_options *o, 
         if (!o->write.overwrite && stat(path, &st) == 0)
             return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)",
                             path);
+        /* Inputs of the same name in different folders: one output would
+         * silently replace the other (outputs are renamed in together). */
+        for (int j = 0; o->per_input && j < i; j++) {
+            char other[2048];
+            wpd_per_input_path(o->per_input, inputs[j], other, sizeof other);
+            if (!strcmp(path, other))
+                return wpd_fail(err, WPD_E_USAGE, "%s: inputs %s and %s would both write it",
+                                path, inputs[j], inputs[i]);
+        }
     }
     return 0;
 }

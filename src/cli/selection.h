@@ -34,8 +34,9 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
 /* Writes one output per input file into outdir (same file name, same
  * format as the input): the points of sel whose global index falls in that
  * file (file_count[i] finite points each, in order). Files that receive no
- * point are still written (empty). Returns 0 or -1; on failure the outputs
- * already written stay (each complete). */
+ * point are still written (empty). All appear together: each is renamed
+ * into place only after every one is complete. Returns 0, or -1 with no
+ * new output left (the outputs an earlier run made stay as they were). */
 int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
                                   const uint64_t *file_count, const char *outdir,
                                   const wpd_write_options *opt, wpd_error *err);

@@ -202,7 +202,7 @@ int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long of
     return write_all(f, buf, len, off < 0 ? 0 : off, err);
 }
 
-int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
+int wpd_outfile_finish(wpd_outfile *f, wpd_error *err)
 {
     /* fsync before rename: after a crash the final name must never point at
      * a file whose data did not reach the disk. */
@@ -211,6 +211,7 @@ int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
         wpd_outfile_abort(f);
         return -1;
     }
+    /* Storage that reports a failed write only at close (NFS, quotas). */
     if (close(f->fd) != 0) {
         f->fd = -1;
         wpd_fail_errno(err, "%s: cannot close output", f->final_path);
@@ -218,6 +219,11 @@ int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
         return -1;
     }
     f->fd = -1;
+    return 0;
+}
+
+int wpd_outfile_rename(wpd_outfile *f, wpd_error *err)
+{
     if (rename(f->temp_path, f->final_path) != 0) {
         wpd_fail_errno(err, "%s: cannot rename temporary output into place", f->final_path);
         wpd_outfile_abort(f);
@@ -226,6 +232,11 @@ int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
     wpd_tmpdir_untrack_file(f->temp_path);
     f->temp_path[0] = '\0';
     return 0;
+}
+
+int wpd_outfile_commit(wpd_outfile *f, wpd_error *err)
+{
+    return wpd_outfile_finish(f, err) ? -1 : wpd_outfile_rename(f, err);
 }
 
 void wpd_outfile_abort(wpd_outfile *f)

@@ -46,6 +46,13 @@ int wpd_path_is_one_of(const char *path, char *const *paths, int n);
  * temporary file is removed. Returns 0 or -1. */
 int wpd_outfile_commit(wpd_outfile *f, wpd_error *err);
 
+/* The two halves of wpd_outfile_commit, for outputs that must appear
+ * together: finish flushes to disk and closes, leaving the complete file
+ * under its temporary name; rename puts it in place. On failure either
+ * removes the temporary file. Return 0 or -1. */
+int wpd_outfile_finish(wpd_outfile *f, wpd_error *err);
+int wpd_outfile_rename(wpd_outfile *f, wpd_error *err);
+
 /* Closes and removes the temporary file. Safe to call twice. */
 void wpd_outfile_abort(wpd_outfile *f);
 

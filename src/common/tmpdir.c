@@ -29,10 +29,16 @@
 
 enum { SLOT_FREE = 0, SLOT_CLAIMED = 1, SLOT_LIVE = 2 };
 
+/* What a slot stands for. */
+enum { KIND_DIR = 0, KIND_FILE = 1, KIND_OUTPUTS = 2 };
+
 static struct {
     char path[PATH_CAP];
+    char marker[40];             /* KIND_OUTPUTS: ".wpd-tmp-<pid>-" */
     pid_t owner;                 /* a forked child leaves its parent's alone */
-    int is_file;                 /* a temporary output file, not a directory */
+    int kind;                    /* KIND_*: a directory with all it holds, a
+                                    temporary output, or the temporary outputs
+                                    of this process in a directory */
     volatile sig_atomic_t state; /* SLOT_*; the handler removes SLOT_LIVE */
 } registry[MAX_DIRS];
 
@@ -70,6 +76,38 @@ static void empty_and_remove(const char *path)
     }
 }
 
+/* 1 if needle occurs in hay (async-signal-safe: no library call). */
+static int contains(const char *hay, const char *needle)
+{
+    for (; *hay; hay++) {
+        size_t i = 0;
+        while (needle[i] && hay[i] == needle[i])
+            i++;
+        if (!needle[i])
+            return 1;
+    }
+    return 0;
+}
+
+/* Unlinks the entries of dir whose name contains marker. Async-signal-safe,
+ * like empty_and_remove. */
+static void remove_marked(const char *dir, const char *marker)
+{
+    int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        return;
+    char buf[4096] __attribute__((aligned(8)));
+    ssize_t got;
+    while ((got = getdents64(fd, buf, sizeof buf)) > 0)
+        for (ssize_t off = 0; off < got;) {
+            const struct dirent64 *d = (const struct dirent64 *)(buf + off);
+            off += d->d_reclen;
+            if (contains(d->d_name, marker))
+                unlinkat(fd, d->d_name, 0);
+        }
+    close(fd);
+}
+
 static int ours(int k)
 {
     return registry[k].state == SLOT_LIVE && registry[k].owner == getpid();
@@ -77,8 +115,10 @@ static int ours(int k)
 
 static void remove_slot(int k)
 {
-    if (registry[k].is_file)
+    if (registry[k].kind == KIND_FILE)
         unlink(registry[k].path);
+    else if (registry[k].kind == KIND_OUTPUTS)
+        remove_marked(registry[k].path, registry[k].marker);
     else
         empty_and_remove(registry[k].path);
 }
@@ -177,7 +217,7 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
     if (ok) {
         memcpy(registry[slot].path, path, (size_t)len + 1);
         registry[slot].owner = getpid();
-        registry[slot].is_file = 0;
+        registry[slot].kind = KIND_DIR;
         __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
     }
     pthread_sigmask(SIG_SETMASK, &old, NULL);
@@ -194,7 +234,8 @@ void wpd_tmpdir_remove(const char *path)
 {
     pthread_mutex_lock(&registry_mu);
     for (int k = 0; k < MAX_DIRS; k++)
-        if (registry[k].state == SLOT_LIVE && strcmp(registry[k].path, path) == 0) {
+        if (registry[k].state == SLOT_LIVE && registry[k].kind == KIND_DIR &&
+            strcmp(registry[k].path, path) == 0) {
             /* Emptied before it is unregistered: a signal arriving meanwhile
              * still finds it and finishes the job. */
             empty_and_remove(registry[k].path);
@@ -259,19 +300,46 @@ int wpd_tmpdir_track_file(const char *path)
         return -1;
     memcpy(registry[slot].path, path, len + 1);
     registry[slot].owner = getpid();
-    registry[slot].is_file = 1;
+    registry[slot].kind = KIND_FILE;
     __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
     return 0;
 }
 
-void wpd_tmpdir_untrack_file(const char *path)
+/* Frees the live slot of that kind and path (a path may be tracked as a
+ * file and as an output directory at once). */
+static void untrack(int kind, const char *path)
 {
     pthread_mutex_lock(&registry_mu);
     for (int k = 0; k < MAX_DIRS; k++)
-        if (registry[k].state == SLOT_LIVE && registry[k].is_file &&
+        if (registry[k].state == SLOT_LIVE && registry[k].kind == kind &&
             strcmp(registry[k].path, path) == 0) {
             registry[k].state = SLOT_FREE;
             break;
         }
     pthread_mutex_unlock(&registry_mu);
+}
+
+void wpd_tmpdir_untrack_file(const char *path)
+{
+    untrack(KIND_FILE, path);
+}
+
+int wpd_tmpdir_track_outputs(const char *dir)
+{
+    size_t len = strlen(dir);
+    int slot = len < PATH_CAP ? claim_slot() : -1;
+    if (slot < 0)
+        return -1;
+    memcpy(registry[slot].path, dir, len + 1);
+    snprintf(registry[slot].marker, sizeof registry[slot].marker, ".wpd-tmp-%ld-",
+             (long)getpid());
+    registry[slot].owner = getpid();
+    registry[slot].kind = KIND_OUTPUTS;
+    __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+    return 0;
+}
+
+void wpd_tmpdir_untrack_outputs(const char *dir)
+{
+    untrack(KIND_OUTPUTS, dir);
 }

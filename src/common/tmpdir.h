@@ -35,6 +35,16 @@ int wpd_tmpdir_track_file(const char *path);
 /* Stops tracking path (it was renamed into place or removed). */
 void wpd_tmpdir_untrack_file(const char *path);
 
+/* Registers dir so that on SIGINT/SIGTERM/SIGHUP and at exit every entry
+ * of it named like a temporary output of this process (containing
+ * ".wpd-tmp-<pid>-") is removed: for runs that keep many finished outputs
+ * under temporary names until all can be renamed, more than the registry
+ * could hold one by one. Returns 0, or -1 when the registry is full. */
+int wpd_tmpdir_track_outputs(const char *dir);
+
+/* Stops tracking dir's temporary outputs (they were renamed or removed). */
+void wpd_tmpdir_untrack_outputs(const char *dir);
+
 /* Removes "<base>/<prefix>-<pid>-*" directories whose pid is no longer a
  * running process (left by a killed run). Returns how many were removed. */
 int wpd_tmpdir_sweep_stale(const char *base, const char *prefix);

@@ -63,6 +63,22 @@ int wpd_writer_close(wpd_writer *w, wpd_error *err)
     return rc;
 }
 
+int wpd_writer_close_pending(wpd_writer *w, wpd_outfile *done, wpd_error *err)
+{
+    int rc = w->ops->finish(w, err);
+    if (rc == 0)
+        rc = wpd_outfile_finish(&w->out, err);
+    else
+        wpd_outfile_abort(&w->out);
+    *done = w->out;
+    if (rc) {
+        done->fd = -1;
+        done->temp_path[0] = '\0';
+    }
+    free_writer(w);
+    return rc;
+}
+
 void wpd_writer_abort(wpd_writer *w)
 {
     if (!w)

@@ -8,6 +8,7 @@
 #define WPD_WRITER_H
 
 #include "common/error.h"
+#include "common/outfile.h"
 #include "io/batch.h"
 #include "io/schema.h"
 
@@ -37,6 +38,13 @@ int wpd_writer_write(wpd_writer *w, const wpd_batch *b, wpd_error *err);
  * path and frees the writer. Returns 0, or -1 with err set (the temporary
  * file is then removed and the writer freed). */
 int wpd_writer_close(wpd_writer *w, wpd_error *err);
+
+/* Like wpd_writer_close, but leaves the complete file under its temporary
+ * name, described by *done: wpd_outfile_rename puts it in place and
+ * wpd_outfile_abort removes it (for outputs that appear together or not at
+ * all). The writer is freed. Returns 0, or -1 with err set (the temporary
+ * file is then removed). */
+int wpd_writer_close_pending(wpd_writer *w, wpd_outfile *done, wpd_error *err);
 
 /* Removes the temporary file and frees the writer. NULL is allowed. */
 void wpd_writer_abort(wpd_writer *w);
