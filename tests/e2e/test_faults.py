@@ -110,26 +110,50 @@ def point_count(path):
     return len(read_ply(path)[1])
 
 
+def synth_tiles(n, k):
+    """n synthetic points in k LAS files (one per cell of a grid)."""
+    key = ("tiles", n, k)
+    if key not in _cache:
+        base = os.path.join(_cache_dir(), "tiles_%d_%d.las" % (n, k))
+        subprocess.run([WPD, "synth", "-n", str(n), "--tiles", str(k), "-o", base], check=True,
+                       capture_output=True)
+        paths = [base[:-4] + "_tile%d.las" % i for i in range(1, k + 1)]
+        for p in paths:
+            os.chmod(p, 0o444)
+        _cache[key] = paths
+    return _cache[key]
+
+
 class Case:
     """One faulted run: inputs hashed first, then checked after."""
 
-    def __init__(self, inputs, out, n, extra=(), spill="spill"):
+    def __init__(self, inputs, out, n, extra=(), spill="spill", per_input=False):
+        """out is the output file, or with per_input the output folder."""
         self.inputs = inputs if isinstance(inputs, list) else [inputs]
-        self.out, self.n, self.spill = out, n, spill
+        self.out, self.n, self.spill, self.per_input = out, n, spill, per_input
         os.makedirs(spill, exist_ok=True)
-        self.args = ["resample", *self.inputs, "-o", out, "-n", n, "--tmpdir", spill,
-                     "--threads", 1, *extra]
+        if per_input:
+            os.makedirs(out, exist_ok=True)
+        self.args = ["resample", *self.inputs, "--per-input" if per_input else "-o", out,
+                     "-n", n, "--tmpdir", spill, "--threads", 1, *extra]
         self.before = {p: sha256(p) for p in self.inputs}
+
+    def outputs(self):
+        if self.per_input:
+            return [os.path.join(self.out, os.path.basename(p)) for p in self.inputs]
+        return [self.out]
 
     def run(self, **kw):
         self.p = run(self.args, **kw)
         return self.p
 
     def check_clean(self, what):
-        """No output, no temporary output, lock or spill; inputs unchanged."""
+        """No output, no temporary output, lock or spill; inputs unchanged.
+        With --per-input none of the outputs: they appear together or not."""
         out_dir = os.path.dirname(self.out) or "."
-        assert not os.path.exists(self.out), "%s: partial output %s left" % (what, self.out)
-        left = leftovers(out_dir, self.spill)
+        for out in self.outputs():
+            assert not os.path.exists(out), "%s: partial output %s left" % (what, out)
+        left = leftovers(out_dir, self.spill, *([self.out] if self.per_input else []))
         assert left == [], "%s: left behind %s" % (what, left)
         assert os.listdir(self.spill) == [], "%s: spill dir holds %s" % (what, os.listdir(self.spill))
         for p, h in self.before.items():
@@ -155,7 +179,7 @@ class Case:
     def check_succeeded(self, what):
         p = self.p
         assert p.returncode == 0, "%s: exit %d: %s" % (what, p.returncode, p.stderr.strip())
-        assert point_count(self.out) == self.n, what
+        assert sum(point_count(o) for o in self.outputs()) == self.n, what
         assert leftovers(os.path.dirname(self.out) or ".", self.spill) == [], what
         for path, h in self.before.items():
             assert sha256(path) == h, "%s: input %s changed" % (what, path)
@@ -318,6 +342,37 @@ def test_disk_full_while_spilling_and_while_writing():
         full.close()
 
 
+def test_per_input_outputs_appear_together_or_not_at_all():
+    """--per-input: the disk fills after the first outputs are complete.
+    None may stay: with --skip-existing the next run would resample the
+    other inputs on their own (a seam, another count)."""
+    tiles = synth_tiles(150_000, 3)
+    full = FullDisk("full", 512 << 10)  # one output of ~340 KB fits, not three
+    try:
+        print("  full disk: " + full.means)
+        for path_name, extra in PATHS.items():
+            c = Case(tiles, "full", 30_000, extra, per_input=True)
+            c.run(env=full.env)
+            c.check_failed("--per-input onto a full disk, " + path_name, 3, names="full/",
+                           says=("disk full",))
+            assert os.listdir("full") == [], os.listdir("full")
+            c = Case(tiles, "out", 30_000, extra, per_input=True)  # and the disk is fine
+            c.run()
+            c.check_succeeded("--per-input, " + path_name)
+            shutil.rmtree("out")
+    finally:
+        full.close()
+    # two inputs of one name would write one output: refused before any work
+    os.makedirs("a")
+    os.makedirs("b")
+    for d in ("a", "b"):
+        shutil.copy(tiles[0], d)
+    c = Case(["a/" + os.path.basename(tiles[0]), "b/" + os.path.basename(tiles[0])], "out",
+             1000, per_input=True)
+    c.run()
+    c.check_failed("two inputs of one name", 1, says=("would both write it",))
+
+
 def test_file_size_limit_is_disk_full_not_a_signal():
     """RLIMIT_FSIZE with SIGXFSZ at its default action (which kills): wpd
     ignores the signal itself, so the write fails with EFBIG and the run
@@ -444,6 +499,53 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
         interrupted += 1
         c.check_clean(what)
     assert interrupted >= 5, "only %d of 8 runs were interrupted" % interrupted
+    # --per-input: the outputs appear together or not at all
+    c = Case(synth_tiles(1_000_000, 4), "out", 20_000, ["--min-tiles", 8], per_input=True)
+    base = timed_baseline(c.args)
+    shutil.rmtree("out")
+    interrupted = 0
+    for k in range(4):
+        sig = (signal.SIGTERM, signal.SIGINT)[k % 2]
+        delay = rng.uniform(0.5, 1.0) * base  # the later half, where the writing is
+        os.makedirs("out")
+        p = subprocess.Popen([WPD, *map(str, c.args)], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True)
+        time.sleep(delay)
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=60)
+        what = "--per-input, %s after %.3f s" % (sig.name, delay)
+        if p.returncode == 0:
+            assert sum(point_count(o) for o in c.outputs()) == 20_000, what
+        else:
+            assert p.returncode == -sig, "%s: exit %d: %s" % (what, p.returncode, err)
+            interrupted += 1
+            c.check_clean(what)
+        shutil.rmtree("out")
+    print("  --per-input: %d of 4 runs interrupted" % interrupted)
+
+
+def test_signals_before_the_per_input_renames_leave_nothing():
+    """20 outputs finished under temporary names, none renamed (more than
+    the signal handlers' registry holds one by one): SIGTERM, SIGINT and
+    SIGHUP remove them all; after SIGKILL the next run does."""
+    tiles = synth_tiles(100_000, 20)
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGKILL):
+        c = Case(tiles, "out", 10_000, PATHS["engine"], per_input=True)
+        p = subprocess.Popen([WPD, *map(str, c.args)], stderr=subprocess.PIPE, text=True,
+                             env=dict(os.environ, WPD_TEST_STALL="per-input"))
+        line = p.stderr.readline()
+        assert "stalled at per-input" in line, line
+        pending = [f for f in os.listdir("out") if ".wpd-tmp-" in f]
+        assert len(pending) == 20, pending
+        p.send_signal(sig)
+        assert p.wait(timeout=30) == -sig, (sig.name, p.returncode)
+        p.stderr.close()
+        if sig == signal.SIGKILL:
+            assert len(leftovers("out")) == 20  # nothing could clean up
+            c.run(env={"WPD_TEST_STALL": ""})
+            c.check_succeeded("the run after SIGKILL")
+        else:
+            c.check_clean(sig.name)
 
 
 def test_sigkill_at_random_moments_then_the_next_run_sweeps():
