@@ -23,8 +23,8 @@ typedef struct loaded_cloud {
     uint8_t *records;
     double *xyz;
     uint64_t *gid;
-    double origin[3];         /* minimum corner of the points */
-    double extent[3];         /* size of their bounding box */
+    double origin[3];         /* minimum corner of the frame box */
+    double extent[3];         /* size of the frame box */
 } loaded_cloud;
 
 static void loaded_free(loaded_cloud *c)
@@ -62,9 +62,13 @@ static int load_cloud(wpd_cloud *cloud, loaded_cloud *out, wpd_progress *pg, wpd
         loaded_free(out);
         return -1;
     }
-    wpd_bounds bounds;
+    /* The frame the engine would use (wpd_bounds_tight): the declared box
+     * when it fits the points, else theirs. */
+    wpd_bounds bounds, declared;
     wpd_bounds_reset(&bounds);
     wpd_bounds_add(&bounds, out->xyz, out->n);
+    if (wpd_cloud_declared_bounds(cloud, &declared) && wpd_bounds_tight(&declared, &bounds))
+        bounds = declared;
     for (int k = 0; k < 3; k++) {
         out->origin[k] = out->n ? bounds.min[k] : 0.0;
         out->extent[k] = out->n ? bounds.max[k] - bounds.min[k] : 0.0;

@@ -87,6 +87,41 @@ uint64_t wpd_cloud_count(const wpd_cloud *c)
     return total;
 }
 
+int wpd_cloud_declared_bounds(const wpd_cloud *c, wpd_bounds *out)
+{
+    wpd_bounds_reset(out);
+    for (int i = 0; i < c->nfiles; i++) {
+        const wpd_header *h = &c->headers[i];
+        if (h->format != WPD_FMT_LAS)
+            return 0;
+        for (int a = 0; a < 3; a++) {
+            if (!isfinite(h->las.min[a]) || !isfinite(h->las.max[a]) ||
+                h->las.min[a] > h->las.max[a])
+                return 0;
+            out->min[a] = fmin(out->min[a], h->las.min[a]);
+            out->max[a] = fmax(out->max[a], h->las.max[a]);
+        }
+        out->count += h->point_count;
+    }
+    return c->nfiles > 0;
+}
+
+int wpd_bounds_tight(const wpd_bounds *declared, const wpd_bounds *actual)
+{
+    if (declared->count != actual->count || actual->count == 0)
+        return 0;
+    double longest = 0;
+    for (int a = 0; a < 3; a++)
+        longest = fmax(longest, actual->max[a] - actual->min[a]);
+    double slack = 1e-6 * longest;
+    for (int a = 0; a < 3; a++)
+        if (!(declared->min[a] <= actual->min[a] && declared->max[a] >= actual->max[a] &&
+              actual->min[a] - declared->min[a] <= slack &&
+              declared->max[a] - actual->max[a] <= slack))
+            return 0;
+    return 1;
+}
+
 static void close_current(wpd_cloud *c)
 {
     if (c->reader) {

@@ -48,6 +48,18 @@ int wpd_cloud_bounds(wpd_cloud *c, wpd_bounds *out, wpd_error *err);
 
 void wpd_cloud_close(wpd_cloud *c);
 
+/* The box the headers declare: 1 with out set (union of the boxes, count =
+ * the declared records) when every file declares one (LAS), else 0. */
+int wpd_cloud_declared_bounds(const wpd_cloud *c, wpd_bounds *out);
+
+/* Whether a declared box can stand for the actual one as the frame of a
+ * run: it holds every point (the counts agree) and each face lies within
+ * a millionth of the extent of the actual face. Both the in-memory and the
+ * out-of-core paths choose their frame by this rule, so a cloud gives the
+ * same samples on either; the engine then needs no bounds pass of its own
+ * for LAS input. */
+int wpd_bounds_tight(const wpd_bounds *declared, const wpd_bounds *actual);
+
 /* Resets b to an empty box (min = +inf, max = -inf, count 0). */
 void wpd_bounds_reset(wpd_bounds *b);
 /* Extends b by the n points of xyz (3 doubles each). */

@@ -528,24 +528,44 @@ static void flat_free(flat_samples *f)
     memset(f, 0, sizeof *f);
 }
 
+/* The whole sample set in global-index order: the order the in-memory
+ * path holds its samples in, so that ties (equal distances, common on
+ * quantized coordinates) are broken the same way in the pruning and the
+ * exact count. */
 static int flatten(const engine *e, flat_samples *f)
 {
-    f->n = store_count(e);
-    f->gid = malloc((f->n ? f->n : 1) * sizeof *f->gid);
-    f->xyz = malloc((f->n ? f->n : 1) * 3 * sizeof *f->xyz);
-    f->tile = malloc((f->n ? f->n : 1) * sizeof *f->tile);
-    if (!f->gid || !f->xyz || !f->tile)
-        return -1;
+    size_t n = f->n = store_count(e), m = n ? n : 1;
+    f->gid = malloc(m * sizeof *f->gid);
+    f->xyz = malloc(m * 3 * sizeof *f->xyz);
+    f->tile = malloc(m * sizeof *f->tile);
+    uint64_t *tk = malloc(m * sizeof *tk);
+    uint32_t *from = malloc(m * sizeof *from), *tv = malloc(m * sizeof *tv);
+    uint32_t *local = malloc(m * sizeof *local);
+    int rc = f->gid && f->xyz && f->tile && tk && from && tv && local ? 0 : -1;
     size_t k = 0;
-    for (int t = 0; t < e->plan.ntiles; t++) {
-        const tile_samples *s = &e->store[t];
-        memcpy(f->gid + k, s->gid, s->n * sizeof *f->gid);
-        memcpy(f->xyz + 3 * k, s->xyz, 3 * s->n * sizeof *f->xyz);
-        for (size_t i = 0; i < s->n; i++)
-            f->tile[k + i] = t;
-        k += s->n;
+    for (int t = 0; rc == 0 && t < e->plan.ntiles; t++)
+        for (size_t i = 0; i < e->store[t].n; i++, k++) {
+            f->gid[k] = e->store[t].gid[i];
+            f->tile[k] = t;
+            local[k] = (uint32_t)i;
+            from[k] = (uint32_t)k;
+        }
+    if (rc == 0) {
+        wpd_radix_sort_u64(f->gid, from, n, 64, tk, tv);
+        /* tile of each sorted sample: through tv, then back into f->tile */
+        for (size_t j = 0; j < n; j++)
+            tv[j] = (uint32_t)f->tile[from[j]];
+        for (size_t j = 0; j < n; j++) {
+            const tile_samples *s = &e->store[tv[j]];
+            memcpy(f->xyz + 3 * j, s->xyz + 3 * (size_t)local[from[j]], 3 * sizeof *f->xyz);
+            f->tile[j] = (int)tv[j];
+        }
     }
-    return 0;
+    free(tk);
+    free(from);
+    free(tv);
+    free(local);
+    return rc;
 }
 
 /* Replaces the store by the samples idx[0..m-1] (ascending) of f. */

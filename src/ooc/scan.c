@@ -113,36 +113,45 @@ static int count_cloud(wpd_cloud *cloud, const wpd_scan *scan, counter *c, int t
     return failed ? -1 : 0;
 }
 
+/* The actual box and points per file of what the counters saw. */
+static void sum_counters(const counter *c, int threads, int nfiles, wpd_bounds *box,
+                         uint64_t *file_count)
+{
+    wpd_bounds_reset(box);
+    memset(file_count, 0, (size_t)nfiles * sizeof *file_count);
+    for (int t = 0; t < threads; t++) {
+        for (int a = 0; a < 3 && c[t].box.count; a++) {
+            box->min[a] = fmin(box->min[a], c[t].box.min[a]);
+            box->max[a] = fmax(box->max[a], c[t].box.max[a]);
+        }
+        box->count += c[t].box.count;
+        for (int f = 0; f < nfiles; f++)
+            file_count[f] += c[t].file_count[f];
+    }
+}
+
+/* Pass 1 when the headers declare no usable box: the actual one. */
 static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, int threads, wpd_progress *pg,
-                       wpd_error *err)
+                       wpd_bounds *box, wpd_error *err)
 {
     counter *c = counters_new(cloud, NULL, 0, threads, 0);
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     int rc = count_cloud(cloud, NULL, c, threads, pg, err);
-    wpd_bounds box;
-    wpd_bounds_reset(&box);
-    for (int t = 0; rc == 0 && t < threads; t++) {
-        for (int a = 0; a < 3 && c[t].box.count; a++) {
-            box.min[a] = fmin(box.min[a], c[t].box.min[a]);
-            box.max[a] = fmax(box.max[a], c[t].box.max[a]);
-        }
-        box.count += c[t].box.count;
-        for (int f = 0; f < s->nfiles; f++)
-            s->file_count[f] += c[t].file_count[f];
-    }
+    if (rc == 0)
+        sum_counters(c, threads, s->nfiles, box, s->file_count);
     counters_free(c, threads);
-    if (rc)
-        return -1;
-    if (box.count == 0)
-        return wpd_fail(err, WPD_E_INPUT, "%s: no point with finite coordinates",
-                        wpd_cloud_header(cloud, 0)->path);
-    s->count = box.count;
+    return rc;
+}
+
+/* The frame: origin at the box's minimum corner. */
+static void set_frame(wpd_scan *s, const wpd_bounds *box)
+{
+    s->count = box->count;
     for (int a = 0; a < 3; a++) {
-        s->origin[a] = box.min[a];
-        s->extent[a] = box.max[a] - box.min[a];
+        s->origin[a] = box->min[a];
+        s->extent[a] = box->max[a] - box->min[a];
     }
-    return 0;
 }
 
 static void init_grid(wpd_scan *s)
@@ -171,16 +180,22 @@ static int combine(wpd_scan *s, counter *c, int threads, size_t cells)
     return wpd_ladder_finish(&c[0].ladder, s->edge, s->voxels, &s->nscales);
 }
 
+/* Pass 2 in the frame of s; also the actual box and points per file. */
 static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int threads,
-                     wpd_progress *pg, wpd_error *err)
+                     wpd_progress *pg, wpd_bounds *actual, wpd_error *err)
 {
+    init_grid(s);
     size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
-    counter *c = counters_new(cloud, s, voxel_cap, threads, cells);
+    free(s->density);
+    s->density = calloc(cells, sizeof *s->density);
+    counter *c = s->density ? counters_new(cloud, s, voxel_cap, threads, cells) : NULL;
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     int rc = count_cloud(cloud, s, c, threads, pg, err);
     if (rc == 0 && combine(s, c, threads, cells))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
+    if (rc == 0)
+        sum_counters(c, threads, s->nfiles, actual, s->file_count);
     counters_free(c, threads);
     return rc;
 }
@@ -189,27 +204,44 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *
                  wpd_scan *out, wpd_error *err)
 {
     memset(out, 0, sizeof *out);
+    threads = threads < 1 ? 1 : threads;
     out->nfiles = wpd_cloud_nfiles(cloud);
     out->file_count = calloc((size_t)out->nfiles, sizeof *out->file_count);
     if (!out->file_count)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    /* LAS headers declare the box: the scan starts in its frame and checks
+     * it (wpd_bounds_tight), saving a pass over the inputs; only when the
+     * headers are off does a second scan in the actual frame follow. */
+    wpd_bounds declared, actual;
+    int have_declared = wpd_cloud_declared_bounds(cloud, &declared);
     double t = omp_get_wtime();
-    wpd_progress_phase(progress, "bounds", wpd_cloud_count(cloud), "points");
-    if (bounds_pass(cloud, out, threads < 1 ? 1 : threads, progress, err))
-        goto fail;
-    wpd_progress_end(progress);
+    if (have_declared) {
+        set_frame(out, &declared);
+    } else {
+        wpd_progress_phase(progress, "bounds", wpd_cloud_count(cloud), "points");
+        if (bounds_pass(cloud, out, threads, progress, &actual, err))
+            goto fail;
+        wpd_progress_end(progress);
+        set_frame(out, &actual);
+    }
     out->bounds_seconds = omp_get_wtime() - t;
     t = omp_get_wtime();
-    init_grid(out);
-    out->density = calloc((size_t)out->dim[0] * out->dim[1] * out->dim[2], sizeof *out->density);
-    if (!out->density) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory for the density grid");
-        goto fail;
+    for (int pass = 0;; pass++) {
+        if (out->count == 0) {
+            wpd_fail(err, WPD_E_INPUT, "%s: no point with finite coordinates",
+                     wpd_cloud_header(cloud, 0)->path);
+            goto fail;
+        }
+        wpd_progress_phase(progress, "scan", out->count, "points");
+        if (scan_pass(cloud, out, voxel_cap, threads, progress, &actual, err))
+            goto fail;
+        wpd_progress_end(progress);
+        if (!have_declared || pass > 0 || wpd_bounds_tight(&declared, &actual))
+            break;
+        set_frame(out, &actual); /* the headers are off: count again */
     }
-    wpd_progress_phase(progress, "scan", out->count, "points");
-    if (scan_pass(cloud, out, voxel_cap, threads < 1 ? 1 : threads, progress, err) || wpd_cloud_rewind(cloud, err))
+    if (wpd_cloud_rewind(cloud, err))
         goto fail;
-    wpd_progress_end(progress);
     out->scan_seconds = omp_get_wtime() - t;
     return 0;
 fail:

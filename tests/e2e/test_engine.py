@@ -96,6 +96,30 @@ def test_tiles_sized_by_the_budget_give_the_same_bytes_for_threads():
     assert filecmp.cmp("m1.las", "m2.las", shallow=False)
 
 
+def loosen_las_bounds(src, dst, grow):
+    """Copies a LAS file with its header box widened by `grow` on x and y."""
+    import struct
+    with open(src, "rb") as f:
+        buf = bytearray(f.read())
+    # max x, min x, max y, min y, max z, min z: doubles from offset 179
+    mx, nx, my, ny = struct.unpack_from("<4d", buf, 179)
+    struct.pack_into("<4d", buf, 179, mx + grow, nx - grow, my + grow, ny - grow)
+    with open(dst, "wb") as f:
+        f.write(buf)
+
+
+def test_header_bounds_off_give_the_same_samples():
+    # LAS headers declare the box: the engine scans in its frame without a
+    # bounds pass, and both paths fall back to the points' own box when the
+    # header is off - so a wrong header changes nothing.
+    wpd("synth", "-n", 300000, "--seed", 5, "-o", "tight.las")
+    loosen_las_bounds("tight.las", "loose.las", 10.0)
+    for extra in ((), ("--min-tiles", 4)):  # in memory, and the engine
+        for src in ("tight.las", "loose.las"):
+            run(src, src[:-4] + "_out.las", 5000, *extra)
+        assert filecmp.cmp("tight_out.las", "loose_out.las", shallow=False), extra
+
+
 def test_engine_quality_within_2_percent_of_one_tile():
     src = data(*NC)
     one = run(src, "one.las", 100000)
