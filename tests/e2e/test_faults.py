@@ -7,9 +7,11 @@ Both paths run: the cloud in memory and the out-of-core engine (--min-tiles).
 
 Read, write, sync/close and allocation faults come from tests/fault/fault.c,
 an LD_PRELOAD interposer compiled here with `cc -shared -fPIC` (those tests
-skip when there is no compiler, or when wpd is a sanitizer build, whose
-allocator must not be interposed). The full disk is a small tmpfs when
-mount works (root), else the interposer; a file size limit is also tested."""
+skip when there is no compiler; under a sanitizer build, whose allocator
+must stay its own, only the allocation tests skip). The full disk is a
+small tmpfs when mount works (root), else the interposer; a file size
+limit is also tested. Random moments are seeded: the seed is printed and
+WPD_FAULT_SEED=S repeats a run."""
 import atexit
 import hashlib
 import os
@@ -55,27 +57,46 @@ def sanitized():
     if "asan" not in _cache:
         with open(WPD, "rb") as f:
             blob = f.read()
-        _cache["asan"] = b"__asan_init" in blob or b"__ubsan_handle" in blob
+        _cache["asan"] = (bool(os.environ.get("WPD_ASAN")) or b"__asan_init" in blob
+                          or b"__ubsan_handle" in blob)
     return _cache["asan"]
 
 
-def interposer():
-    """Path of the compiled tests/fault/fault.c; skips the test when it
-    cannot be built or used."""
-    if sanitized():
-        raise Skip("wpd is a sanitizer build: the LD_PRELOAD fault interposer would "
-                   "replace its allocator")
-    if "so" not in _cache:
+def asan_runtime():
+    """The ASan runtime wpd is linked with (it must come first in
+    LD_PRELOAD), or None."""
+    p = subprocess.run(["ldd", WPD], capture_output=True, text=True)
+    for line in p.stdout.splitlines():
+        if "libasan" in line and "=>" in line:
+            return line.split("=>")[1].split()[0]
+    return None
+
+
+def interposer(alloc=False):
+    """LD_PRELOAD value loading tests/fault/fault.c (compiled here once);
+    skips the test when it cannot be built or used. Under a sanitizer build
+    only the I/O faults are compiled in, after the ASan runtime: the
+    allocator must stay the sanitizer's."""
+    if sanitized() and alloc:
+        raise Skip("wpd is a sanitizer build: allocation faults would replace its allocator")
+    key = "so-io" if sanitized() else "so"
+    if key not in _cache:
         cc = os.environ.get("CC", "cc")
         if not shutil.which(cc):
             raise Skip("no C compiler (%s) to build the fault interposer tests/fault/fault.c" % cc)
-        so = os.path.join(_cache_dir(), "fault.so")
+        so = os.path.join(_cache_dir(), key + ".so")
         src = os.path.join(REPO, "tests", "fault", "fault.c")
-        p = subprocess.run([cc, "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-o",
-                            so, src], capture_output=True, text=True)
+        flags = ["-DFAULT_NO_ALLOC"] if sanitized() else []
+        p = subprocess.run([cc, "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", *flags,
+                            "-o", so, src], capture_output=True, text=True)
         assert p.returncode == 0, "cannot build %s: %s" % (src, p.stderr)
-        _cache["so"] = so
-    return _cache["so"]
+        if sanitized():
+            runtime = asan_runtime()
+            if not runtime:
+                raise Skip("sanitizer build without a shared ASan runtime to preload first")
+            so = runtime + ":" + so
+        _cache[key] = so
+    return _cache[key]
 
 
 def sha256(path):
@@ -97,7 +118,7 @@ def run(args, env=None, preexec_fn=None, timeout=120):
 
 def preload(**faults):
     """Environment that loads the interposer with the given WPD_FAULT_* settings."""
-    env = {"LD_PRELOAD": interposer()}
+    env = {"LD_PRELOAD": interposer(alloc=any(k.startswith("MALLOC") for k in faults))}
     env.update({"WPD_FAULT_" + k: str(v) for k, v in faults.items()})
     return env
 
@@ -480,11 +501,11 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
     c = Case(src, "out.las", 20_000, ["--min-tiles", 8])
     base = timed_baseline(c.args)
     os.remove("out.las")
-    print("  seed %d, uninterrupted run %.2f s" % (seed, base))
+    print("  seed %d (WPD_FAULT_SEED reproduces), uninterrupted run %.2f s" % (seed, base))
     interrupted = 0
     for k in range(8):
         sig = (signal.SIGTERM, signal.SIGINT)[k % 2]
-        delay = rng.uniform(0.02, 0.95) * base
+        delay = rng.uniform(0.02, 0.9) * base
         what = "%s after %.3f s" % (sig.name, delay)
         p = subprocess.Popen([WPD, *map(str, c.args)], stdout=subprocess.DEVNULL,
                              stderr=subprocess.PIPE, text=True)
@@ -498,7 +519,10 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
         assert p.returncode == -sig, "%s: exit %d: %s" % (what, p.returncode, err)
         interrupted += 1
         c.check_clean(what)
-    assert interrupted >= 5, "only %d of 8 runs were interrupted" % interrupted
+    print("  %d of 8 runs interrupted" % interrupted)
+    # the baseline may be timed while the machine is busier than later:
+    # runs that finish first are checked above; a few must land
+    assert interrupted >= 3, "only %d of 8 runs were interrupted" % interrupted
     # --per-input: the outputs appear together or not at all
     c = Case(synth_tiles(1_000_000, 4), "out", 20_000, ["--min-tiles", 8], per_input=True)
     base = timed_baseline(c.args)
@@ -555,7 +579,8 @@ def test_sigkill_at_random_moments_then_the_next_run_sweeps():
     c = Case(src, "out.las", 20_000, ["--min-tiles", 8])
     base = timed_baseline(c.args)
     os.remove("out.las")
-    print("  seed %d, uninterrupted run %.2f s" % (seed, base))
+    print("  seed %d (WPD_FAULT_SEED reproduces), uninterrupted run %.2f s" % (seed, base))
+    swept = 0
     for k in range(4):
         delay = rng.uniform(0.05, 0.95) * base
         what = "SIGKILL after %.3f s" % delay
@@ -566,6 +591,7 @@ def test_sigkill_at_random_moments_then_the_next_run_sweeps():
         p.wait(timeout=60)
         if os.path.exists("out.las"):  # renamed into place: complete
             assert point_count("out.las") == 20_000, what
+        swept += bool(leftovers(".", "spill"))
         # the next run replaces it and removes what the dead one left
         p2 = run([*c.args, "--force"])
         assert p2.returncode == 0, "%s, next run: %s" % (what, p2.stderr)
@@ -573,5 +599,7 @@ def test_sigkill_at_random_moments_then_the_next_run_sweeps():
         assert leftovers(".", "spill") == [], (what, leftovers(".", "spill"))
         assert os.listdir("spill") == [], what
         os.remove("out.las")
+    print("  %d of 4 kills left a spill, temporary output or lock for the next run" % swept)
+    assert swept >= 1, "no kill landed while there was something to sweep"
     for path, h in c.before.items():
         assert sha256(path) == h

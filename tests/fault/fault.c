@@ -294,6 +294,10 @@ int close(int fd)
 
 /* ------------------------------------------------------------ allocation */
 
+/* Built with -DFAULT_NO_ALLOC for sanitizer builds of wpd: their allocator
+ * must stay theirs (the I/O faults above still apply). */
+#ifndef FAULT_NO_ALLOC
+
 /* Called for every injected allocation failure: a breakpoint for finding
  * the call site (gdb -ex 'break fault_alloc_failed'). */
 __attribute__((noinline)) void fault_alloc_failed(unsigned long long call, size_t size)
@@ -369,3 +373,4 @@ void *valloc(size_t size)
         return errno = ENOMEM, NULL;
     return __libc_memalign((size_t)sysconf(_SC_PAGESIZE), size);
 }
+#endif
