@@ -151,6 +151,35 @@ long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err)
     return 0;
 }
 
+wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err)
+{
+    const char **paths = malloc((size_t)c->nfiles * sizeof *paths);
+    if (!paths) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+        return NULL;
+    }
+    for (int i = 0; i < c->nfiles; i++)
+        paths[i] = c->headers[i].path;
+    wpd_cloud *copy = wpd_cloud_open(paths, c->nfiles, err);
+    free(paths);
+    return copy;
+}
+
+int wpd_cloud_seek(wpd_cloud *c, uint64_t index, wpd_error *err)
+{
+    wpd_cloud_rewind(c, err);
+    while (c->current < c->nfiles && index >= c->headers[c->current].point_count)
+        index -= c->headers[c->current++].point_count;
+    if (c->current == c->nfiles)
+        return 0; /* at the end */
+    if (!(c->reader = wpd_reader_open(c->headers[c->current].path, err)))
+        return -1;
+    if (!wpd_reader_can_seek(c->reader))
+        return wpd_fail(err, WPD_E_USAGE, "%s: records of this format cannot be positioned",
+                        c->headers[c->current].path);
+    return wpd_reader_seek(c->reader, index, err);
+}
+
 int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err)
 {
     (void)err;

@@ -34,6 +34,17 @@ uint64_t wpd_cloud_count(const wpd_cloud *c);
  * comes from one file, whose index is stored in *file (may be NULL).
  * Returns points read, 0 at the end of the last file, -1 with err set. */
 long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err);
+/* Another cloud over the same files with a reading position of its own,
+ * for reading in parallel. Returns NULL with err set. */
+wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err);
+
+/* Positions c so that the next read starts at record `index`, counted over
+ * all files in order (a file holds its header's point_count records).
+ * Global indices of points equal record indices when no point was dropped.
+ * Returns 0, or -1 with err set (WPD_E_USAGE when that file's records
+ * cannot be positioned: ASCII PLY). */
+int wpd_cloud_seek(wpd_cloud *c, uint64_t index, wpd_error *err);
+
 /* Restarts reading at the first point of the first file. */
 int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err);
 /* Points of file i delivered since the last rewind (finite points only). */

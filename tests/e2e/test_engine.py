@@ -96,6 +96,19 @@ def test_tiles_sized_by_the_budget_give_the_same_bytes_for_threads():
     assert filecmp.cmp("m1.las", "m2.las", shallow=False)
 
 
+def test_records_gathered_alike_from_every_format():
+    # The records pass runs on all threads where the format can seek (LAS,
+    # binary PLY) and on one where it cannot (ASCII PLY): same bytes.
+    wpd("synth", "-n", 200000, "--seed", 3, "-o", "s.las")
+    wpd("convert", "s.las", "s_bin.ply")
+    wpd("convert", "s.las", "s_ascii.ply", "--ascii")
+    for src in ("s.las", "s_bin.ply", "s_ascii.ply"):
+        ext = src[src.index("."):]
+        run(src, "t1" + ext, 3000, "--min-tiles", 4, "--threads", 1)
+        run(src, "t2" + ext, 3000, "--min-tiles", 4, "--threads", 2)
+        assert filecmp.cmp("t1" + ext, "t2" + ext, shallow=False), src
+
+
 def loosen_las_bounds(src, dst, grow):
     """Copies a LAS file with its header box widened by `grow` on x and y."""
     import struct
