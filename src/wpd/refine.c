@@ -46,6 +46,26 @@ int wpd_refine_can_prune(const wpd_refine *st)
     return st->r_superset > 0 && st->r_superset <= st->r;
 }
 
+/* The next radius to try between r_lo (m_lo samples, too many) and r_hi
+ * (m_hi, too few): where the line through both in log-log space meets
+ * 1.025 target (the count falls about as a power of r), kept off the ends
+ * of the bracket so that it always shrinks; the midpoint while no count
+ * below target is known. */
+static double next_radius(double r_lo, size_t m_lo, double r_hi, size_t m_hi, size_t target)
+{
+    double mid = 0.5 * (r_lo + r_hi);
+    if (m_hi == 0 || m_lo <= m_hi)
+        return mid;
+    double slope = log((double)m_hi / (double)m_lo) / log(r_hi / r_lo);
+    double r = r_lo * pow(1.025 * (double)target / (double)m_lo, 1 / slope);
+    double margin = 0.1 * (r_hi - r_lo);
+    if (!(r > r_lo + margin))
+        return r_lo + margin;
+    if (!(r < r_hi - margin))
+        return r_hi - margin;
+    return r;
+}
+
 long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *cand,
                         size_t count, size_t target, double r_lo, uint64_t seed, int threads,
                         uint32_t *out, double *r_out, int *passes, wpd_error *err)
@@ -66,10 +86,10 @@ long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *
         return kept ? -1 : wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory pruning %zu samples",
                                     count);
     }
-    size_t best = count;
+    size_t best = count, m_lo = count, m_hi = 0; /* counts at r_lo, r_hi (0: none yet) */
     *r_out = r_lo;
     for (int it = 0; it < 30; it++) {
-        double r = it == 0 ? r_first : 0.5 * (r_lo + r_hi);
+        double r = it == 0 ? r_first : next_radius(r_lo, m_lo, r_hi, m_hi, target);
         long m = wpd_poisson_run(ps, r, kept, err);
         if (m < 0) {
             wpd_poisson_release(ps);
@@ -80,9 +100,11 @@ long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *
             (*passes)++;
         if ((size_t)m < target) {
             r_hi = r;
+            m_hi = (size_t)m;
             continue;
         }
         r_lo = r;
+        m_lo = (size_t)m;
         best = (size_t)m;
         *r_out = r;
         memcpy(out, kept, best * sizeof *out);
