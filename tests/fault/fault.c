@@ -10,6 +10,9 @@
  *       then fail with EIO: a disk that goes bad under a file being read.
  *       With WPD_FAULT_READ_EOF=1 they return end of file instead: a file
  *       that shrinks while it is read (truncated by another program).
+ *       WPD_FAULT_READ_COUNT=FILE writes at exit the bytes read from PATH
+ *       (without WPD_FAULT_READ_AFTER nothing fails): faults can then be
+ *       placed at fractions of what a run reads, whatever its passes.
  *   WPD_FAULT_WRITE_DIR=DIR  WPD_FAULT_WRITE_AFTER=N
  *       write/pwrite/writev to files directly or indirectly under DIR
  *       accept N bytes in total, then fail with ENOSPC: a full disk.
@@ -79,6 +82,7 @@ static int malloc_always;
 static unsigned long long malloc_above;  /* 0: no size limit */
 static unsigned long long malloc_calls;
 static char malloc_count_file[4096];
+static char read_count_file[4096];
 
 static unsigned long long env_u64(const char *name, unsigned long long dflt)
 {
@@ -107,6 +111,9 @@ __attribute__((constructor)) static void fault_init(void)
     const char *cf = getenv("WPD_FAULT_MALLOC_COUNT");
     if (cf)
         snprintf(malloc_count_file, sizeof malloc_count_file, "%s", cf);
+    const char *rc = getenv("WPD_FAULT_READ_COUNT");
+    if (rc)
+        snprintf(read_count_file, sizeof read_count_file, "%s", rc);
     __atomic_store_n(&malloc_on, 1, __ATOMIC_RELEASE);
 
     const char *rf = getenv("WPD_FAULT_READ_FILE");
@@ -114,7 +121,7 @@ __attribute__((constructor)) static void fault_init(void)
     if (rf && *rf && stat(rf, &st) == 0) {
         read_dev = st.st_dev;
         read_ino = st.st_ino;
-        read_after = env_u64("WPD_FAULT_READ_AFTER", 0);
+        read_after = env_u64("WPD_FAULT_READ_AFTER", ~0ULL);
         read_eof = env_u64("WPD_FAULT_READ_EOF", 0) != 0;
         read_on = 1;
     }
@@ -124,19 +131,25 @@ __attribute__((constructor)) static void fault_init(void)
     close_dir_len = canonical_dir("WPD_FAULT_CLOSE_DIR", close_dir, sizeof close_dir);
 }
 
-__attribute__((destructor)) static void fault_fini(void)
+/* Writes value as a decimal line to path (at exit: raw system calls). */
+static void write_count(const char *path, unsigned long long value)
 {
-    if (!malloc_count_file[0])
-        return;
     char line[32];
-    int n = snprintf(line, sizeof line, "%llu\n",
-                     __atomic_load_n(&malloc_calls, __ATOMIC_RELAXED));
-    int fd = (int)syscall(SYS_openat, AT_FDCWD, malloc_count_file,
-                          O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    int n = snprintf(line, sizeof line, "%llu\n", value);
+    int fd = (int)syscall(SYS_openat, AT_FDCWD, path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC,
+                          0644);
     if (fd >= 0) {
         if (syscall(SYS_write, fd, line, (size_t)n) < 0) { /* nothing to do about it */ }
         syscall(SYS_close, fd);
     }
+}
+
+__attribute__((destructor)) static void fault_fini(void)
+{
+    if (malloc_count_file[0])
+        write_count(malloc_count_file, __atomic_load_n(&malloc_calls, __ATOMIC_RELAXED));
+    if (read_count_file[0])
+        write_count(read_count_file, __atomic_load_n(&read_done, __ATOMIC_RELAXED));
 }
 
 /* ------------------------------------------------------------ reads */
