@@ -607,6 +607,7 @@ static int prune_to_range(engine *e, double r_lo, wpd_error *err)
         wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
         goto done;
     }
+    store_clear(e); /* f holds everything now: the memory peak is here */
     long m = wpd_prune_to_range(f.xyz, f.gid, NULL, f.n, e->opt->target, r_lo,
                                 e->opt->params.seed, e->threads, kept, &e->res->radius,
                                 &e->res->prune_passes, err);
@@ -658,6 +659,7 @@ static int exact_count(engine *e, wpd_error *err)
         wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
         goto done;
     }
+    store_clear(e); /* f holds everything now: the memory peak is here */
     for (size_t i = 0; i < f.n; i++)
         idx[i] = (uint32_t)i;
     wpd_exact_input in = {f.xyz, f.gid, NULL, 0, e->res->radius, e->threads};
