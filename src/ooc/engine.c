@@ -951,7 +951,9 @@ static int open_spill(engine *e, wpd_error *err)
 {
     wpd_spill_options so;
     wpd_spill_default_options(&so);
-    so.threads = e->threads;
+    /* --threads is the number of threads the run may keep busy: with one,
+     * compression runs on the tiling thread itself. */
+    so.threads = e->threads > 1 ? e->threads : 0;
     /* The whole write-buffer budget, whatever the number of tiles: larger
      * chunks compress better, and the peak does not depend on the input's
      * size (a small cloud in few tiles uses as much as a large one). */
