@@ -957,7 +957,8 @@ static int open_spill(engine *e, wpd_error *err)
     /* The whole write-buffer budget, whatever the number of tiles: larger
      * chunks compress better, and the peak does not depend on the input's
      * size (a small cloud in few tiles uses as much as a large one). */
-    size_t per_tile = SPILL_BUFFERS_MAX / (size_t)e->plan.ntiles;
+    size_t buffers = (size_t)e->plan.ntiles + (size_t)so.threads * WPD_SPILL_SPARES_PER_THREAD;
+    size_t per_tile = SPILL_BUFFERS_MAX / buffers;
     so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
     e->spill = wpd_spill_create(e->opt->tmpdir, e->plan.ntiles, 0, &so, err);
     return e->spill ? 0 : -1;

@@ -10,8 +10,9 @@
  *
  * Threads (options.threads): 0 compresses and writes on the appending
  * thread; k > 0 starts k compression threads: a full buffer is handed over
- * and the tile continues in a spare one (2 spares a thread). Memory while
- * writing: (tiles that received points + 2 k) * buffer_bytes, plus per
+ * and the tile continues in a spare one (WPD_SPILL_SPARES_PER_THREAD a
+ * thread). Memory while writing: (tiles that received points +
+ * WPD_SPILL_SPARES_PER_THREAD k) * buffer_bytes, plus per
  * thread about 2.5 buffer_bytes of scratch and a zstd context. Halo flags
  * are stored as bits: any nonzero flag reads back as 1.
  *
@@ -80,7 +81,6 @@
 
 #define CHUNK_MAGIC 0x31505357u  /* "WSP1" little-endian */
 #define MAX_OPEN_FILES 64        /* tile files kept open while writing */
-#define SPARE_PER_WORKER 2       /* buffers in flight per compression thread */
 
 static double now_seconds(void)
 {
@@ -1127,10 +1127,10 @@ wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_si
     }
     int want = s->opt.threads < 0 ? 0 : s->opt.threads > 64 ? 64 : s->opt.threads;
     if (want) {
-        s->qcap = (size_t)ntiles + (size_t)want * SPARE_PER_WORKER + 1;
+        s->qcap = (size_t)ntiles + (size_t)want * WPD_SPILL_SPARES_PER_THREAD + 1;
         s->queue = malloc(s->qcap * sizeof *s->queue);
         s->workers = malloc((size_t)want * sizeof *s->workers);
-        s->max_spares = want * SPARE_PER_WORKER;
+        s->max_spares = want * WPD_SPILL_SPARES_PER_THREAD;
         for (int k = 0; s->queue && s->workers && k < want; k++)
             if (pthread_create(&s->workers[k], NULL, worker_main, s) == 0)
                 s->nworkers++;
