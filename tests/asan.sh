@@ -8,8 +8,7 @@
 # an e2e test), is written to DIR/reports/ and counts as one more failure:
 # an e2e test that only checks an exit code would otherwise let a report
 # through. Leak checking is on; allocation failures return NULL as they do
-# without ASan (the program handles them). WPD_ASAN=1 tells tests that they
-# run sanitized (address-space limits cannot work under ASan).
+# without ASan (the program handles them).
 set -u
 cd "$(dirname "$0")/.."
 dir=${1:-build/asan}
@@ -18,7 +17,7 @@ rm -rf "$reports"
 mkdir -p "$reports"
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:allocator_may_return_null=1:log_path=$reports/asan"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:log_path=$reports/ubsan"
-export WPD_BIN="$PWD/$dir/wpd" WPD_UNIT_TESTS="$PWD/$dir/unit_tests" WPD_ASAN=1
+export WPD_BIN="$PWD/$dir/wpd" WPD_UNIT_TESTS="$PWD/$dir/unit_tests"
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
 
