@@ -763,12 +763,15 @@ static double choose_view(const panel *p, const double origin[3], int w, int h, 
 {
     int best = PREFERRED_AZIMUTH;
     double scale[AZIMUTHS];
-    for (int a = 0; a < AZIMUTHS; a++) {
+    /* All scales first: comparing with scale[best] while filling the array
+     * read scale[PREFERRED_AZIMUTH] before it was set (found by test-asan,
+     * where the uninitialised stack value differed). */
+    for (int a = 0; a < AZIMUTHS; a++)
         scale[a] = fit_scale(p->ext_hi[a][0] - p->ext_lo[a][0],
                              p->ext_hi[a][1] - p->ext_lo[a][1], w, h);
+    for (int a = 0; a < AZIMUTHS; a++)
         if (scale[a] > scale[best])
             best = a;
-    }
     if (scale[PREFERRED_AZIMUTH] >= scale[best] / 1.1)
         best = PREFERRED_AZIMUTH;
     view_angles(v, best * AZIMUTH_STEP);
