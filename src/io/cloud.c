@@ -103,6 +103,9 @@ int wpd_cloud_declared_bounds(const wpd_cloud *c, wpd_bounds *out)
         }
         out->count += h->point_count;
     }
+    for (int a = 0; a < 3; a++) /* finite faces can still be too far apart */
+        if (!isfinite(out->max[a] - out->min[a]))
+            return 0;
     return c->nfiles > 0;
 }
 

@@ -24,7 +24,10 @@
 /* ------------------------------------------------------------------ budget */
 
 enum {
-    FIXED_BYTES = 48 << 20,               /* voxel ladder, batches, plan, runtime */
+    FIXED_BYTES = 48 << 20,               /* one thread's voxel ladder and batches,
+                                             plan, runtime; more threads only where
+                                             the rest of the budget holds their own
+                                             (pass_threads) */
     SPILL_BUFFERS_MAX = 32 << 20,         /* all tiles' write buffers together */
     MIN_TILE_POINTS = 20000,
 };
@@ -56,6 +59,16 @@ size_t wpd_engine_min_budget(uint64_t target, uint32_t record_size)
     return FIXED_BYTES + SPILL_BUFFERS_MAX / 4 + samples_bytes(target, record_size) +
            (size_t)WPD_ENGINE_TILES_IN_FLIGHT * MIN_TILE_POINTS *
                wpd_engine_bytes_per_tile_point(record_size);
+}
+
+/* Threads a streaming pass may run: each beyond the first needs per_thread
+ * bytes of its own (the first one's are in FIXED_BYTES), out of what the
+ * budget leaves beside in_use bytes held during that pass. The passes'
+ * results do not depend on it. */
+static int pass_threads(size_t mem, int threads, size_t in_use, size_t per_thread)
+{
+    size_t used = FIXED_BYTES + in_use;
+    return wpd_threads_within(threads, mem > used ? mem - used : 0, per_thread);
 }
 
 /* ------------------------------------------------------------------ state */
@@ -358,7 +371,10 @@ static int tile_pass(engine *e, wpd_error *err)
         return -1;
     pthread_mutex_init(&tl.mu, NULL);
     pthread_cond_init(&tl.turn, NULL);
-#pragma omp parallel num_threads(e->threads)
+    /* A lane: batch, frame coordinates and routing for twice its points. */
+    size_t lane_bytes = (size_t)TILE_BATCH * (e->record_size + 48) + 2 * (size_t)TILE_BATCH * 42;
+    int lanes = pass_threads(e->opt->mem_bytes, e->threads, SPILL_BUFFERS_MAX, lane_bytes);
+#pragma omp parallel num_threads(lanes)
     tiler_lane_run(&tl);
     pthread_mutex_destroy(&tl.mu);
     pthread_cond_destroy(&tl.turn);
@@ -833,11 +849,14 @@ static int copy_records(engine *e, wpd_cloud *cloud, size_t lo, size_t hi, uint6
 static int gather_records_parallel(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
-    if (e->threads < 2 || res->count < 2 || e->scan.count != wpd_cloud_count(e->cloud))
+    size_t batch_bytes = (size_t)65536 * (e->record_size + 24);
+    int threads = pass_threads(e->opt->mem_bytes, e->threads,
+                               samples_bytes(e->opt->target, e->record_size), batch_bytes);
+    if (threads < 2 || res->count < 2 || e->scan.count != wpd_cloud_count(e->cloud))
         return 1;
     int failed = 0, unseekable = 0;
     wpd_error first_err = {0};
-#pragma omp parallel num_threads(e->threads)
+#pragma omp parallel num_threads(threads)
     {
         int t = omp_get_thread_num(), nt = omp_get_num_threads();
         size_t lo = res->count * (size_t)t / (size_t)nt;
@@ -951,13 +970,23 @@ static int open_spill(engine *e, wpd_error *err)
 {
     wpd_spill_options so;
     wpd_spill_default_options(&so);
-    /* --threads is the number of threads the run may keep busy: with one,
-     * compression runs on the tiling thread itself. */
+    /* With one thread, compression runs on the tiling thread itself (no
+     * thread beside it); with more, as many compression threads as
+     * --threads wait beside the tiling threads. */
     so.threads = e->threads > 1 ? e->threads : 0;
     /* The whole write-buffer budget, whatever the number of tiles: larger
      * chunks compress better, and the peak does not depend on the input's
      * size (a small cloud in few tiles uses as much as a large one). */
-    size_t buffers = (size_t)e->plan.ntiles + (size_t)so.threads * WPD_SPILL_SPARES_PER_THREAD;
+    /* Spares within the write-buffer budget where the smallest buffers
+     * (64 KB) allow: at least 2 a thread. */
+    if (so.threads > 0) {
+        size_t room = SPILL_BUFFERS_MAX / (64 << 10), tiles = (size_t)e->plan.ntiles;
+        size_t fit = room > tiles ? (room - tiles) / (size_t)so.threads : 0;
+        so.spares_per_thread = fit < 2 ? 2 : fit > WPD_SPILL_SPARES_PER_THREAD
+                                                  ? WPD_SPILL_SPARES_PER_THREAD
+                                                  : (int)fit;
+    }
+    size_t buffers = (size_t)e->plan.ntiles + (size_t)so.threads * (size_t)so.spares_per_thread;
     size_t per_tile = SPILL_BUFFERS_MAX / buffers;
     so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
     e->spill = wpd_spill_create(e->opt->tmpdir, e->plan.ntiles, 0, &so, err);
@@ -968,7 +997,9 @@ static int run_phases(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
     wpd_engine_timings *tm = &res->time;
-    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, e->threads, e->opt->progress, &e->scan, err))
+    size_t scan_room = e->opt->mem_bytes > FIXED_BYTES ? e->opt->mem_bytes - FIXED_BYTES : 0;
+    if (wpd_scan_run(e->cloud, WPD_LADDER_KEYS, e->threads, scan_room, e->opt->progress, &e->scan,
+                     err))
         return -1;
     tm->bounds = e->scan.bounds_seconds;
     tm->scan = e->scan.scan_seconds;

@@ -1,12 +1,13 @@
 /* engine.h - out-of-core Weighted Poisson-disk resampling.
  *
  * The pipeline (docs/engine.md):
- *   scan    two streaming passes: bounds, finite points per file, occupied
- *           voxels (-> one global radius), a coarse density grid;
+ *   scan    one streaming pass (two for inputs without a declared box or
+ *           with a wrong one): finite points per file, occupied voxels
+ *           (-> one global radius), a coarse density grid;
  *   plan    tiles of density-grid cells that fit the memory budget, their
  *           neighbours and a colouring;
- *   tile    a streaming pass writes every point (record, global index,
- *           coordinates) to its tile and, within the halo, to its
+ *   tile    a streaming pass writes every point (global index, frame
+ *           coordinates, halo flag) to its tile and, within the halo, to its
  *           neighbours, as zstd-compressed spill files;
  *   poisson colour by colour, tiles of a colour in parallel, each seeing the
  *           samples its finished neighbours accepted (no two samples closer
@@ -15,9 +16,11 @@
  *   exact   the global exact count over all samples;
  *   smooth  colour by colour again: each tile smooths its samples with its
  *           neighbours' samples as context and its input (with halo) as the
- *           surface, and picks up the records of its samples;
+ *           surface;
  *   merge   samples sorted by global index: the output order, whatever the
- *           threads.
+ *           threads; their records from a last streaming pass.
+ * Every pass keeps within the budget: a thread beyond the first runs only
+ * where the budget holds its own working set.
  * The samples themselves (about n of them) stay in memory; the input never
  * does, beyond the tiles in flight.
  */

@@ -62,8 +62,12 @@ static void count_batch(const wpd_scan *s, counter *c)
     const wpd_batch *b = &c->batch;
     for (size_t i = 0; i < b->n && !c->failed; i++) {
         double p[3];
-        for (int a = 0; a < 3; a++)
-            p[a] = b->xyz[3 * i + a] - s->origin[a];
+        /* Clamped into the box: a header box that turns out to be off
+         * leaves points outside it (that pass is then done again). */
+        for (int a = 0; a < 3; a++) {
+            double v = b->xyz[3 * i + a] - s->origin[a];
+            p[a] = v < 0 ? 0 : v > s->extent[a] ? s->extent[a] : v;
+        }
         c->density[wpd_scan_cell_of(s, p)]++;
         c->failed = wpd_ladder_put(&c->ladder, p) != 0;
     }
@@ -130,10 +134,22 @@ static void sum_counters(const counter *c, int threads, int nfiles, wpd_bounds *
     }
 }
 
-/* Pass 1 when the headers declare no usable box: the actual one. */
-static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, int threads, wpd_progress *pg,
-                       wpd_bounds *box, wpd_error *err)
+static size_t batch_bytes(const wpd_cloud *cloud)
 {
+    return (size_t)BATCH_POINTS * (wpd_cloud_header(cloud, 0)->schema.record_size + 24);
+}
+
+int wpd_threads_within(int threads, size_t room, size_t per_thread)
+{
+    size_t extra = room / (per_thread ? per_thread : 1);
+    return threads <= 1 ? 1 : (size_t)(threads - 1) <= extra ? threads : 1 + (int)extra;
+}
+
+/* Pass 1 when the headers declare no usable box: the actual one. */
+static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, int threads, size_t room,
+                       wpd_progress *pg, wpd_bounds *box, wpd_error *err)
+{
+    threads = wpd_threads_within(threads, room, batch_bytes(cloud));
     counter *c = counters_new(cloud, NULL, 0, threads, 0);
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
@@ -182,10 +198,14 @@ static int combine(wpd_scan *s, counter *c, int threads, size_t cells)
 
 /* Pass 2 in the frame of s; also the actual box and points per file. */
 static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int threads,
-                     wpd_progress *pg, wpd_bounds *actual, wpd_error *err)
+                     size_t room, wpd_progress *pg, wpd_bounds *actual, wpd_error *err)
 {
     init_grid(s);
     size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
+    /* A thread's own: its ladder (up to 32 bytes a key while coarsening),
+     * density grid and batch. */
+    size_t per_thread = 32 * voxel_cap + cells * sizeof *s->density + batch_bytes(cloud);
+    threads = wpd_threads_within(threads, room, per_thread);
     free(s->density);
     s->density = calloc(cells, sizeof *s->density);
     counter *c = s->density ? counters_new(cloud, s, voxel_cap, threads, cells) : NULL;
@@ -200,8 +220,8 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
     return rc;
 }
 
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *progress,
-                 wpd_scan *out, wpd_error *err)
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, size_t room,
+                 wpd_progress *progress, wpd_scan *out, wpd_error *err)
 {
     memset(out, 0, sizeof *out);
     threads = threads < 1 ? 1 : threads;
@@ -219,7 +239,7 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *
         set_frame(out, &declared);
     } else {
         wpd_progress_phase(progress, "bounds", wpd_cloud_count(cloud), "points");
-        if (bounds_pass(cloud, out, threads, progress, &actual, err))
+        if (bounds_pass(cloud, out, threads, room, progress, &actual, err))
             goto fail;
         wpd_progress_end(progress);
         set_frame(out, &actual);
@@ -233,7 +253,7 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *
             goto fail;
         }
         wpd_progress_phase(progress, "scan", out->count, "points");
-        if (scan_pass(cloud, out, voxel_cap, threads, progress, &actual, err))
+        if (scan_pass(cloud, out, voxel_cap, threads, room, progress, &actual, err))
             goto fail;
         wpd_progress_end(progress);
         if (!have_declared || pass > 0 || wpd_bounds_tight(&declared, &actual))

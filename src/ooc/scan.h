@@ -1,8 +1,11 @@
 /* scan.h - the engine's streaming passes over the inputs before tiling.
  *
- * Pass 1 finds the bounds (the frame origin is their minimum corner, so
- * every later coordinate is small and precise) and the finite points per
- * file. Pass 2 counts occupied voxels and fills a coarse density grid:
+ * The frame: its origin is the minimum corner of the box, so every later
+ * coordinate is small and precise. LAS headers declare the box; the scan
+ * runs in that frame and checks it against the points (wpd_bounds_tight),
+ * scanning again in the points' own frame when a header is off. Other
+ * inputs get a bounds pass first. The scan pass counts finite points per
+ * file, occupied voxels and a coarse density grid:
  * - occupied voxels at a ladder of scales (wpd/ladder.h), in bounded
  *   memory whatever the input size; the global radius comes from these
  *   counts, exactly as the in-memory path computes it.
@@ -26,8 +29,9 @@ typedef struct wpd_scan {
     uint64_t count;                   /* finite points */
     int nfiles;
     uint64_t *file_count;             /* [nfiles] finite points per file */
-    double origin[3];                 /* frame origin: minimum corner */
-    double extent[3];                 /* bounding box size */
+    double origin[3];                 /* frame origin: minimum corner of the box
+                                         (the declared one when tight) */
+    double extent[3];                 /* box size */
     int nscales;
     double edge[WPD_MAX_SCALES];      /* voxel edges, finest first, doubling */
     uint64_t voxels[WPD_MAX_SCALES];  /* occupied voxels at each edge */
@@ -37,13 +41,19 @@ typedef struct wpd_scan {
     double bounds_seconds, scan_seconds;
 } wpd_scan;
 
-/* Runs both passes over cloud (rewound before and after) on `threads`
- * threads (>= 1; the counts do not depend on it). voxel_cap: the most voxel keys held at once per thread
- * (memory: ~32 bytes each). Returns 0, or -1
- * with err set (read errors; WPD_E_INPUT when there is no finite point).
- * progress (may be NULL) gets phases "bounds" and "scan". */
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, wpd_progress *progress,
-                 wpd_scan *out, wpd_error *err);
+/* Runs the passes over cloud (rewound before and after) on up to `threads`
+ * threads (>= 1; the counts do not depend on it): as many as fit in `room`
+ * bytes beside the first thread's working set (wpd_threads_within).
+ * voxel_cap: the most voxel keys a thread's ladder holds at once (memory:
+ * ~32 bytes each). Returns 0, or -1 with err set (read errors; WPD_E_INPUT
+ * when there is no finite point). progress (may be NULL) gets phases
+ * "bounds" (when it runs) and "scan". */
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, size_t room,
+                 wpd_progress *progress, wpd_scan *out, wpd_error *err);
+
+/* Threads that fit: min(threads, 1 + room / per_thread), at least 1. Each
+ * thread beyond the first needs per_thread bytes of its own. */
+int wpd_threads_within(int threads, size_t room, size_t per_thread);
 
 /* Density grid cell of frame point p (clamped into the grid). Inline: the
  * scan and the tiler ask it for every point. */

@@ -10,9 +10,9 @@
  *
  * Threads (options.threads): 0 compresses and writes on the appending
  * thread; k > 0 starts k compression threads: a full buffer is handed over
- * and the tile continues in a spare one (WPD_SPILL_SPARES_PER_THREAD a
+ * and the tile continues in a spare one (options.spares_per_thread a
  * thread). Memory while writing: (tiles that received points +
- * WPD_SPILL_SPARES_PER_THREAD k) * buffer_bytes, plus per
+ * spares_per_thread k) * buffer_bytes, plus per
  * thread about 2.5 buffer_bytes of scratch and a zstd context. Halo flags
  * are stored as bits: any nonzero flag reads back as 1.
  *
@@ -1082,6 +1082,7 @@ void wpd_spill_default_options(wpd_spill_options *o)
     o->level = -3;
     o->buffer_bytes = 256 << 10;
     o->threads = 2;
+    o->spares_per_thread = WPD_SPILL_SPARES_PER_THREAD;
 }
 
 wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_size,
@@ -1127,10 +1128,11 @@ wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_si
     }
     int want = s->opt.threads < 0 ? 0 : s->opt.threads > 64 ? 64 : s->opt.threads;
     if (want) {
-        s->qcap = (size_t)ntiles + (size_t)want * WPD_SPILL_SPARES_PER_THREAD + 1;
+        int spares = s->opt.spares_per_thread < 1 ? 1 : s->opt.spares_per_thread;
+        s->qcap = (size_t)ntiles + (size_t)want * (size_t)spares + 1;
         s->queue = malloc(s->qcap * sizeof *s->queue);
         s->workers = malloc((size_t)want * sizeof *s->workers);
-        s->max_spares = want * WPD_SPILL_SPARES_PER_THREAD;
+        s->max_spares = want * spares;
         for (int k = 0; s->queue && s->workers && k < want; k++)
             if (pthread_create(&s->workers[k], NULL, worker_main, s) == 0)
                 s->nworkers++;

@@ -25,7 +25,7 @@
 typedef struct wpd_spill wpd_spill;
 
 /* Full buffers handed to the compression threads are replaced by spares,
- * this many a thread: with a few, the appending thread waited for a
+ * this many a thread by default: with a few, the appending thread waited for a
  * compression to finish whenever tiles were many and buffers small (100 M
  * points in 292 tiles of 112 KB: tiling 4.6 s with 2 a thread, 3.1 s with
  * 16). */
@@ -35,6 +35,7 @@ typedef struct wpd_spill_options {
     int level;               /* zstd level (see spill.c for the measured choice) */
     size_t buffer_bytes;     /* per-tile write buffer (uncompressed) */
     int threads;             /* compression threads for wpd_spill_flush_full */
+    int spares_per_thread;   /* write buffers handed over per compression thread */
 } wpd_spill_options;
 
 /* Fills o with the measured defaults. */

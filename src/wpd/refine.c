@@ -72,6 +72,7 @@ long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *
 {
     for (size_t i = 0; i < count; i++)
         out[i] = cand ? cand[i] : (uint32_t)i;
+    *r_out = r_lo;
     if (count == 0)
         return 0;
     /* Count falls roughly as r^-2: aim just above target first. */
@@ -80,16 +81,21 @@ long wpd_prune_to_range(const double *xyz, const uint64_t *gid, const uint32_t *
     /* One grid and one set of priorities for all the passes. */
     wpd_poisson_input in = {xyz, gid, NULL, cand, count, NULL, 0, r_first, seed, threads};
     uint32_t *kept = malloc(count * sizeof *kept);
-    wpd_poisson *ps = kept ? wpd_poisson_prepare(&in, err) : NULL;
+    if (!kept)
+        return wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory pruning %zu samples", count);
+    wpd_poisson *ps = wpd_poisson_prepare(&in, err);
     if (!ps) {
         free(kept);
-        return kept ? -1 : wpd_fail(err, WPD_E_MEMORY, "wpd: out of memory pruning %zu samples",
-                                    count);
+        return -1;
     }
     size_t best = count, m_lo = count, m_hi = 0; /* counts at r_lo, r_hi (0: none yet) */
     *r_out = r_lo;
     for (int it = 0; it < 30; it++) {
-        double r = it == 0 ? r_first : next_radius(r_lo, m_lo, r_hi, m_hi, target);
+        /* Interpolation, and bisection every other pass: the bracket at
+         * least halves every two passes whatever the shape of the counts. */
+        double r = it == 0       ? r_first
+                   : it % 2 == 1 ? next_radius(r_lo, m_lo, r_hi, m_hi, target)
+                                 : 0.5 * (r_lo + r_hi);
         long m = wpd_poisson_run(ps, r, kept, err);
         if (m < 0) {
             wpd_poisson_release(ps);

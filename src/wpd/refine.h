@@ -66,7 +66,8 @@ int wpd_refine_can_prune(const wpd_refine *st);
 
 /* Settles an overshooting pass by pruning it: Poisson passes over its
  * samples cand[0..count-1] (indices into xyz/gid; same priorities) at
- * radii above r_lo, its radius, found by bisection until a count lands in
+ * radii above r_lo, its radius, aimed by log-log interpolation between the
+ * bracketing counts (bisection every other pass) until a count lands in
  * [target, 1.05 target] (at most 30 passes). A pruned set keeps the
  * Poisson property at its larger radius. Writes the best subset with at
  * least target samples (ascending) to out (room for count) and returns its

@@ -109,6 +109,20 @@ def test_records_gathered_alike_from_every_format():
         assert filecmp.cmp("t1" + ext, "t2" + ext, shallow=False), src
 
 
+def test_memory_budget_holds_whatever_the_threads():
+    # Threads beyond the first run only where the budget holds their own
+    # working sets (voxel ladders, batches, routing): more threads, same
+    # peak, same bytes.
+    wpd("synth", "-n", 1000000, "--seed", 2, "-o", "m.las")
+    peaks = []
+    for threads in (1, 8):
+        rep = run("m.las", "m%d.las" % threads, 5000, "--min-tiles", 4, "--mem", "80M",
+                  "--threads", threads)
+        peaks.append(rep["peak_rss_bytes"])
+        assert rep["peak_rss_bytes"] <= 80 << 20, (threads, rep["peak_rss_bytes"])
+    assert filecmp.cmp("m1.las", "m8.las", shallow=False)
+
+
 def loosen_las_bounds(src, dst, grow):
     """Copies a LAS file with its header box widened by `grow` on x and y."""
     import struct
@@ -127,10 +141,12 @@ def test_header_bounds_off_give_the_same_samples():
     # header is off - so a wrong header changes nothing.
     wpd("synth", "-n", 300000, "--seed", 5, "-o", "tight.las")
     loosen_las_bounds("tight.las", "loose.las", 10.0)
+    loosen_las_bounds("tight.las", "huge.las", 1e308)  # faces finite, extent not
     for extra in ((), ("--min-tiles", 4)):  # in memory, and the engine
-        for src in ("tight.las", "loose.las"):
+        for src in ("tight.las", "loose.las", "huge.las"):
             run(src, src[:-4] + "_out.las", 5000, *extra)
-        assert filecmp.cmp("tight_out.las", "loose_out.las", shallow=False), extra
+        for off in ("loose_out.las", "huge_out.las"):
+            assert filecmp.cmp("tight_out.las", off, shallow=False), (off, extra)
 
 
 def test_engine_quality_within_2_percent_of_one_tile():
