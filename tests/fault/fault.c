@@ -6,8 +6,9 @@
  *
  *   WPD_FAULT_READ_FILE=PATH  WPD_FAULT_READ_AFTER=N
  *       read/pread/readv/preadv of PATH (any descriptor on the same inode)
- *       deliver N bytes in total, counted over every descriptor and pass,
- *       then fail with EIO: a disk that goes bad under a file being read.
+ *       deliver N bytes in total, counted over every descriptor and pass;
+ *       the read that would go past N fails with EIO, and every read
+ *       after it: a disk that goes bad under a file being read.
  *       With WPD_FAULT_READ_EOF=1 they return end of file instead: a file
  *       that shrinks while it is read (truncated by another program).
  *       WPD_FAULT_READ_COUNT=FILE writes at exit the bytes read from PATH
@@ -161,13 +162,19 @@ static int is_read_target(int fd)
 }
 
 /* How many of len bytes a read of the target may deliver: len, fewer (a
- * short read ending exactly at the limit) or 0 (the read fails). */
+ * short read ending exactly at the limit: the file ends there) or 0 (the
+ * read fails). With EIO the read that reaches past the limit fails as a
+ * whole, as a bad block in its range would: a short read there could hand
+ * a reader reading ahead everything it needs, and the fault would never
+ * show (the engine's records pass stops reading at its last sample). */
 static size_t read_allowance(size_t len)
 {
     unsigned long long done = __atomic_load_n(&read_done, __ATOMIC_RELAXED);
     if (done >= read_after)
         return 0;
-    return read_after - done < len ? (size_t)(read_after - done) : len;
+    if (read_after - done < len)
+        return read_eof ? (size_t)(read_after - done) : 0;
+    return len;
 }
 
 static ssize_t account_read(ssize_t got)
