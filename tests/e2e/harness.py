@@ -11,6 +11,18 @@ import traceback
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 # WPD_BIN runs the suite against another build (make test-asan: build/asan/wpd).
 WPD = os.environ.get("WPD_BIN") or os.path.join(REPO, "wpd")
+_sanitized = []
+
+
+def sanitized():
+    """True if the wpd under test is an ASan/UBSan build (make test-asan):
+    its memory use is not the program's."""
+    if not _sanitized:
+        with open(WPD, "rb") as f:
+            blob = f.read()
+        _sanitized.append(bool(os.environ.get("WPD_ASAN")) or b"__asan_init" in blob
+                          or b"__ubsan_handle" in blob)
+    return _sanitized[0]
 DATA = os.environ.get("WPD_TEST_DATA", os.path.join(REPO, "..", "shared", "data"))
 
 

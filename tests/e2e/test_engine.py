@@ -8,7 +8,7 @@ import os
 import numpy as np
 
 from formats import read_las, read_ply
-from harness import data, wpd
+from harness import data, sanitized, wpd
 
 NC = ("scans", "nc_raleigh_lidar_2269213.las")
 
@@ -119,7 +119,8 @@ def test_memory_budget_holds_whatever_the_threads():
         rep = run("m.las", "m%d.las" % threads, 5000, "--min-tiles", 4, "--mem", "80M",
                   "--threads", threads)
         peaks.append(rep["peak_rss_bytes"])
-        assert rep["peak_rss_bytes"] <= 80 << 20, (threads, rep["peak_rss_bytes"])
+        if not sanitized():  # ASan's shadow memory and quarantine are not ours
+            assert rep["peak_rss_bytes"] <= 80 << 20, (threads, rep["peak_rss_bytes"])
     assert filecmp.cmp("m1.las", "m8.las", shallow=False)
 
 

@@ -24,7 +24,7 @@ import tempfile
 import time
 
 from formats import read_las, read_ply
-from harness import DATA, REPO, WPD, Skip
+from harness import DATA, REPO, WPD, Skip, sanitized
 
 # Both paths of `wpd resample`: every fault runs through each.
 PATHS = {"memory": [], "engine": ["--min-tiles", "4"]}
@@ -50,16 +50,6 @@ def synth(n, ext, ascii_ply=False, seed=1):
         os.chmod(path, 0o444)  # a test that writes to it fails loudly
         _cache[key] = path
     return _cache[key]
-
-
-def sanitized():
-    """1 if ./wpd is an ASan/UBSan build (make test-asan)."""
-    if "asan" not in _cache:
-        with open(WPD, "rb") as f:
-            blob = f.read()
-        _cache["asan"] = (bool(os.environ.get("WPD_ASAN")) or b"__asan_init" in blob
-                          or b"__ubsan_handle" in blob)
-    return _cache["asan"]
 
 
 def asan_runtime():
