@@ -43,7 +43,7 @@ int wpd_fail_errno(wpd_error *err, const char *fmt, ...)
                           : strerror(saved);
     snprintf(err->msg, sizeof err->msg, "%.300s: %s", what, why);
     one_line(err->msg);
-    err->code = WPD_E_IO;
+    err->code = saved == ENOMEM ? WPD_E_MEMORY : WPD_E_IO;
     return -1;
 }
 

@@ -33,7 +33,7 @@ int wpd_fail(wpd_error *err, wpd_errcode code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
 /* Like wpd_fail with code WPD_E_IO, appending ": strerror(errno)". Disk-full
- * (ENOSPC, EDQUOT, EFBIG) is reported as such. */
+ * (ENOSPC, EDQUOT, EFBIG) is reported as such; ENOMEM gets WPD_E_MEMORY. */
 int wpd_fail_errno(wpd_error *err, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 

@@ -6,6 +6,11 @@
 int wpd_batch_init(wpd_batch *b, size_t cap, uint32_t record_size)
 {
     memset(b, 0, sizeof *b);
+    /* Records of up to 64 KB (a LAS header may say so for a file of no
+     * points) must not make a 65536-point batch a 4 GB allocation. */
+    size_t most = WPD_BATCH_MAX_BYTES / (record_size ? record_size : 1);
+    if (cap > most)
+        cap = most ? most : 1;
     b->records = malloc(cap * (record_size ? record_size : 1));
     b->xyz = malloc(cap * 3 * sizeof *b->xyz);
     if (!b->records || !b->xyz) {

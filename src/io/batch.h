@@ -14,8 +14,13 @@ typedef struct wpd_batch {
     double *xyz;           /* 3 * n doubles: x0 y0 z0 x1 ... */
 } wpd_batch;
 
-/* Allocates room for cap points of record_size bytes. Returns 0, or -1 if
- * out of memory (the batch is then zeroed and safe to free). */
+/* Record bytes a batch holds at most. */
+#define WPD_BATCH_MAX_BYTES ((size_t)64 << 20)
+
+/* Allocates room for cap points of record_size bytes - fewer when that
+ * would pass WPD_BATCH_MAX_BYTES of records (b->cap says how many, at least
+ * 1). Returns 0, or -1 if out of memory (the batch is then zeroed and safe
+ * to free). */
 int wpd_batch_init(wpd_batch *b, size_t cap, uint32_t record_size);
 /* Releases the buffers and zeroes the batch. */
 void wpd_batch_free(wpd_batch *b);

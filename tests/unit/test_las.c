@@ -777,3 +777,16 @@ TEST(las_writer_rejects_unrepresentable_coordinates)
     free_points(&p);
     wpd_reader_close(r);
 }
+
+/* A header may declare records of up to 64 KB: a batch of 65536 of them
+ * must not ask for 4 GB. */
+TEST(batch_of_huge_records_stays_small)
+{
+    wpd_batch b;
+    CHECK(wpd_batch_init(&b, 65536, 65535) == 0);
+    CHECK_MSG(b.cap >= 1 && b.cap * 65535 <= WPD_BATCH_MAX_BYTES, "cap %zu", b.cap);
+    wpd_batch_free(&b);
+    CHECK(wpd_batch_init(&b, 65536, 34) == 0);
+    CHECK(b.cap == 65536);
+    wpd_batch_free(&b);
+}
