@@ -497,7 +497,10 @@ def timed_baseline(args):
     return time.monotonic() - t
 
 
-def test_sigterm_and_sigint_at_random_moments_leave_nothing():
+def random_signal_case():
+    """An engine run to interrupt, a seeded random source (the seed is
+    printed; WPD_FAULT_SEED repeats it) and how long the run takes
+    uninterrupted."""
     src = synth(1_000_000, "las")
     seed = int(os.environ.get("WPD_FAULT_SEED", random.randrange(1 << 30)))
     rng = random.Random(seed)
@@ -505,6 +508,11 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
     base = timed_baseline(c.args)
     os.remove("out.las")
     print("  seed %d (WPD_FAULT_SEED reproduces), uninterrupted run %.2f s" % (seed, base))
+    return c, rng, base
+
+
+def test_sigterm_and_sigint_at_random_moments_leave_nothing():
+    c, rng, base = random_signal_case()
     interrupted = 0
     for k in range(8):
         sig = (signal.SIGTERM, signal.SIGINT)[k % 2]
@@ -576,13 +584,7 @@ def test_signals_before_the_per_input_renames_leave_nothing():
 
 
 def test_sigkill_at_random_moments_then_the_next_run_sweeps():
-    src = synth(1_000_000, "las")
-    seed = int(os.environ.get("WPD_FAULT_SEED", random.randrange(1 << 30)))
-    rng = random.Random(seed)
-    c = Case(src, "out.las", 20_000, ["--min-tiles", 8])
-    base = timed_baseline(c.args)
-    os.remove("out.las")
-    print("  seed %d (WPD_FAULT_SEED reproduces), uninterrupted run %.2f s" % (seed, base))
+    c, rng, base = random_signal_case()
     swept = 0
     for k in range(4):
         delay = rng.uniform(0.05, 0.95) * base
