@@ -66,6 +66,9 @@ static ino_t read_ino;
 static unsigned long long read_after;
 static int read_eof;                /* 0 bytes instead of EIO past the limit */
 static unsigned long long read_done; /* bytes delivered so far (atomic) */
+static unsigned long long read_taken; /* bytes reads were allowed (atomic): the
+                                         limit is checked against it, so two
+                                         threads cannot both slip past it */
 
 static char write_dir[4096];         /* canonical, with a trailing '/' */
 static size_t write_dir_len;
@@ -169,12 +172,19 @@ static int is_read_target(int fd)
  * show (the engine's records pass stops reading at its last sample). */
 static size_t read_allowance(size_t len)
 {
-    unsigned long long done = __atomic_load_n(&read_done, __ATOMIC_RELAXED);
-    if (done >= read_after)
-        return 0;
-    if (read_after - done < len)
-        return read_eof ? (size_t)(read_after - done) : 0;
-    return len;
+    unsigned long long taken = __atomic_load_n(&read_taken, __ATOMIC_RELAXED);
+    for (;;) {
+        if (taken >= read_after)
+            return 0;
+        size_t allow = read_after - taken >= len ? len
+                       : read_eof                ? (size_t)(read_after - taken)
+                                                 : 0;
+        if (!allow)
+            return 0;
+        if (__atomic_compare_exchange_n(&read_taken, &taken, taken + allow, 0, __ATOMIC_RELAXED,
+                                        __ATOMIC_RELAXED))
+            return allow;
+    }
 }
 
 static ssize_t account_read(ssize_t got)
