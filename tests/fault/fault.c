@@ -194,13 +194,24 @@ static ssize_t account_read(ssize_t got)
     return got;
 }
 
+/* A read that was allowed `allow` bytes and delivered got: the part not
+ * delivered (end of file, error) is handed back, so the limit counts
+ * delivered bytes, as WPD_FAULT_READ_COUNT measures them. */
+static ssize_t account_allowed(size_t allow, ssize_t got)
+{
+    size_t used = got > 0 ? (size_t)got : 0;
+    if (used < allow)
+        __atomic_sub_fetch(&read_taken, (unsigned long long)(allow - used), __ATOMIC_RELAXED);
+    return account_read(got);
+}
+
 ssize_t read(int fd, void *buf, size_t len)
 {
     if (len && is_read_target(fd)) {
         size_t allow = read_allowance(len);
         if (!allow)
             return read_eof ? 0 : (errno = EIO, -1);
-        return account_read(syscall(SYS_read, fd, buf, allow));
+        return account_allowed(allow, syscall(SYS_read, fd, buf, allow));
     }
     return syscall(SYS_read, fd, buf, len);
 }
@@ -211,28 +222,42 @@ ssize_t pread(int fd, void *buf, size_t len, off_t off)
         size_t allow = read_allowance(len);
         if (!allow)
             return read_eof ? 0 : (errno = EIO, -1);
-        return account_read(syscall(SYS_pread64, fd, buf, allow, off));
+        return account_allowed(allow, syscall(SYS_pread64, fd, buf, allow, off));
     }
     return syscall(SYS_pread64, fd, buf, len, off);
 }
 
 ssize_t pread64(int fd, void *buf, size_t len, off_t off) { return pread(fd, buf, len, off); }
 
+/* A vector read, allowed 1 byte when it was checked: its real size. */
+static ssize_t account_vector(ssize_t got)
+{
+    if (got > 1)
+        __atomic_add_fetch(&read_taken, (unsigned long long)got - 1, __ATOMIC_RELAXED);
+    else if (got < 1)
+        __atomic_sub_fetch(&read_taken, 1ULL, __ATOMIC_RELAXED);
+    return account_read(got);
+}
+
 /* The vector forms fail outright once the limit is reached and pass
  * through before it (wpd does not use them; they are here so that a
  * future use cannot slip past the fault). */
 ssize_t readv(int fd, const struct iovec *iov, int n)
 {
-    if (is_read_target(fd) && !read_allowance(1))
+    if (!is_read_target(fd))
+        return syscall(SYS_readv, fd, iov, n);
+    if (!read_allowance(1))
         return read_eof ? 0 : (errno = EIO, -1);
-    return account_read(syscall(SYS_readv, fd, iov, n));
+    return account_vector(syscall(SYS_readv, fd, iov, n));
 }
 
 ssize_t preadv(int fd, const struct iovec *iov, int n, off_t off)
 {
-    if (is_read_target(fd) && !read_allowance(1))
+    if (!is_read_target(fd))
+        return syscall(SYS_preadv, fd, iov, n, (long)off, 0L);
+    if (!read_allowance(1))
         return read_eof ? 0 : (errno = EIO, -1);
-    return account_read(syscall(SYS_preadv, fd, iov, n, (long)off, 0L));
+    return account_vector(syscall(SYS_preadv, fd, iov, n, (long)off, 0L));
 }
 
 /* ------------------------------------------------------------ writes */
