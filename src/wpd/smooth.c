@@ -242,44 +242,44 @@ static int smooth_one(const wpd_smooth_input *in, const frames *f, const double 
  * samples were pulled. */
 enum { SPACING_K = 6 };
 
-/* Input point nearest to p (its slot in *near) and the input's local
- * spacing there. Returns the distance from p, or -1 if the grid is empty. */
+/* Input point nearest to p (its slot in *near) and, in *spacing, the
+ * input's local spacing there - or, where that settles the test the caller
+ * makes (distance <= spacing), a lower bound of it found on the way: with
+ * d0 the distance from p to its nearest input point q and d1..d6 to the
+ * next six, each of q's six nearest neighbours x has |q x| >= |p x| - d0,
+ * and the six nearest to p other than q are no farther from p than they
+ * are, so spacing(q) >= mean(d1..d6) - d0. When d0 is below that bound
+ * (the margin covers rounding) one query suffices; otherwise q's own
+ * neighbours give the spacing. Returns the distance from p, or -1 if the
+ * grid is empty. */
 static double nearest_with_spacing(const wpd_grid *surface, const double p[3], uint32_t *near,
                                    double *spacing)
 {
-    uint32_t nb[SPACING_K];
-    double d2, nd2[SPACING_K];
-    if (wpd_knn_slots(surface, p, 1, WPD_NO_SELF, INFINITY, 0, near, &d2) < 1)
-        return -1;
-    const double *q = surface->xyz + 3 * (size_t)*near;
-    int got = wpd_knn_slots(surface, q, SPACING_K, surface->id[*near], INFINITY, 0, nb, nd2);
-    double sum = 0;
-    for (int j = 0; j < got; j++)
-        sum += sqrt(nd2[j]);
-    *spacing = got ? sum / got : 0;
-    return sqrt(d2);
-}
-
-/* A cheaper test that accepts most samples as nearest_with_spacing would:
- * with d0 the distance from p to its nearest input point q and d1..d6 to
- * the next six, each of q's six nearest neighbours x has
- * |q x| >= |p x| - d0, and the six nearest to p other than q are no
- * farther from p than they are, so spacing(q) >= mean(d1..d6) - d0. When
- * d0 is below that bound the sample passes the exact test too; otherwise
- * the exact test decides. One query instead of two (the margin covers
- * rounding). */
-static int surely_near(const wpd_grid *surface, const double p[3])
-{
     uint32_t nb[SPACING_K + 1];
     double d2[SPACING_K + 1];
+    *spacing = 0;
     int got = wpd_knn_slots(surface, p, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
-    if (got < SPACING_K + 1)
-        return 0;
-    double d0 = sqrt(d2[0]), mean = 0;
-    for (int j = 1; j <= SPACING_K; j++)
-        mean += sqrt(d2[j]);
-    mean /= SPACING_K;
-    return d0 <= (mean - d0) * (1 - 1e-9);
+    if (got < 1)
+        return -1;
+    *near = nb[0];
+    double d0 = sqrt(d2[0]);
+    if (got == SPACING_K + 1) {
+        double mean = 0;
+        for (int j = 1; j <= SPACING_K; j++)
+            mean += sqrt(d2[j]);
+        double bound = (mean / SPACING_K - d0) * (1 - 1e-9);
+        if (d0 <= bound) {
+            *spacing = bound;
+            return d0;
+        }
+    }
+    const double *q = surface->xyz + 3 * (size_t)*near;
+    got = wpd_knn_slots(surface, q, SPACING_K, surface->id[*near], INFINITY, 0, nb, d2);
+    double sum = 0;
+    for (int j = 0; j < got; j++)
+        sum += sqrt(d2[j]);
+    *spacing = got ? sum / got : 0;
+    return d0;
 }
 
 /* p rounded to the output's lattice (multiples of res per axis in the
@@ -331,10 +331,6 @@ static size_t clamp_to_surface(const wpd_grid *surface, double *pos, const doubl
             uint32_t near;
             double stored[3], spacing = 0;
             round_to_output(res, p, stored);
-            if (surely_near(surface, stored)) {
-                memcpy(p, stored, sizeof stored);
-                break;
-            }
             double d = nearest_with_spacing(surface, stored, &near, &spacing);
             if (d <= spacing) {
                 memcpy(p, stored, sizeof stored);
