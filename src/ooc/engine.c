@@ -528,7 +528,7 @@ static int full_pass(engine *e, double r, size_t *count, wpd_error *err)
     return 0;
 }
 
-/* The whole sample set as flat arrays, in tile order. */
+/* The whole sample set as flat arrays (see flatten). */
 typedef struct flat_samples {
     size_t n;
     uint64_t *gid;
@@ -777,43 +777,19 @@ static int take_all_tile(engine *e, int t, double r, wpd_error *err)
 static int merge(engine *e, wpd_error *err)
 {
     wpd_engine_result *res = e->res;
-    size_t n = store_count(e), m = n ? n : 1;
-    uint64_t *key = malloc(m * sizeof *key), *tk = malloc(m * sizeof *tk);
-    uint32_t *val = malloc(m * sizeof *val), *tv = malloc(m * sizeof *tv);
-    uint32_t *tile_of = malloc(m * sizeof *tile_of), *local = malloc(m * sizeof *local);
-    res->gid = malloc(m * sizeof *res->gid);
-    res->xyz = malloc(m * 3 * sizeof *res->xyz);
-    int rc = 0;
-    if (!key || !tk || !val || !tv || !tile_of || !local || !res->gid || !res->xyz) {
-        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", n);
-        goto done;
+    flat_samples f = {0};
+    if (flatten(e, &f)) {
+        flat_free(&f);
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples", store_count(e));
     }
-    /* Every sample's (tile, place in tile), then the order of their gids. */
-    size_t k = 0;
-    for (int t = 0; t < e->plan.ntiles; t++)
-        for (size_t i = 0; i < e->store[t].n; i++, k++) {
-            key[k] = e->store[t].gid[i];
-            val[k] = (uint32_t)k;
-            tile_of[k] = (uint32_t)t;
-            local[k] = (uint32_t)i;
-        }
-    wpd_radix_sort_u64(key, val, n, 64, tk, tv);
-    for (size_t j = 0; j < n; j++) {
-        const tile_samples *s = &e->store[tile_of[val[j]]];
-        size_t i = local[val[j]];
-        res->gid[j] = key[j];
+    for (size_t j = 0; j < f.n; j++)
         for (int a = 0; a < 3; a++)
-            res->xyz[3 * j + a] = s->xyz[3 * i + a] + e->scan.origin[a];
-    }
-    res->count = n;
-done:
-    free(key);
-    free(tk);
-    free(val);
-    free(tv);
-    free(tile_of);
-    free(local);
-    return rc;
+            f.xyz[3 * j + a] += e->scan.origin[a];
+    res->gid = f.gid;
+    res->xyz = f.xyz;
+    res->count = f.n;
+    free(f.tile);
+    return 0;
 }
 
 /* Copies the records of samples [lo, hi) (sorted by global index) from
