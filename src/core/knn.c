@@ -114,30 +114,30 @@ static int knn_search(const wpd_grid *g, const double q[3], int k, uint32_t self
     }
 }
 
-int wpd_knn(const wpd_grid *g, const double q[3], int k, uint32_t self,
-            double max_dist, double hint, uint32_t *idx, double *d2)
+/* knn_search, its answer written as slots (want_slots) or source ids. */
+static int knn_answer(const wpd_grid *g, const double q[3], int k, uint32_t self,
+                      double max_dist, double hint, int want_slots, uint32_t *out, double *d2)
 {
     knn_heap h;
     int cnt = knn_search(g, q, k, self, max_dist, hint, &h);
     for (int j = 0; j < cnt; j++) {
-        idx[j] = h.id[j];
+        out[j] = want_slots ? h.slot[j] : h.id[j];
         if (d2)
             d2[j] = h.d2[j];
     }
     return cnt;
 }
 
+int wpd_knn(const wpd_grid *g, const double q[3], int k, uint32_t self,
+            double max_dist, double hint, uint32_t *idx, double *d2)
+{
+    return knn_answer(g, q, k, self, max_dist, hint, 0, idx, d2);
+}
+
 int wpd_knn_slots(const wpd_grid *g, const double q[3], int k, uint32_t self,
                   double max_dist, double hint, uint32_t *slot, double *d2)
 {
-    knn_heap h;
-    int cnt = knn_search(g, q, k, self, max_dist, hint, &h);
-    for (int j = 0; j < cnt; j++) {
-        slot[j] = h.slot[j];
-        if (d2)
-            d2[j] = h.d2[j];
-    }
-    return cnt;
+    return knn_answer(g, q, k, self, max_dist, hint, 1, slot, d2);
 }
 
 void wpd_knn_many(const wpd_grid *g, const double *qxyz, const uint32_t *self,
