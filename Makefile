@@ -26,7 +26,9 @@ all: wpd
 wpd: $(MAIN_OBJ) build/libwpd.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LDLIBS)
 
+# Made anew each time: ar would keep the objects of deleted sources.
 build/libwpd.a: $(LIB_OBJ)
+	rm -f $@
 	ar rcs $@ $^
 
 build/%.o: %.c

@@ -2,15 +2,14 @@
  * resampling of a cloud held in memory (one block). */
 #include "cli/commands.h"
 #include "cli/report.h"
-#include "cli/resample_run.h"
 #include "cli/selection.h"
 #include "common/outfile.h"
 #include "common/tmpdir.h"
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "metrics.h"
+#include "resample/resample.h"
 #include "wpd/smooth.h"
-#include "wpd/wpd.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -335,30 +334,33 @@ static int measure(char **inputs, int ninputs, const wpd_selection *sel,
     return 0;
 }
 
-static void print_summary(const wpd_run_info *r, const resample_options *o)
+static void print_summary(const wpd_run_info *info, const resample_options *o)
 {
+    const wpd_resample_result *r = info->run;
+    const wpd_resample_timings *t = &r->time;
     printf("resampled %llu -> %zu points into %s\n", (unsigned long long)r->input_points,
            r->count, o->output ? o->output : o->per_input);
     printf("  radius %.6g (estimate %.6g, first pass %zu points, %d passes%s, %zu before the "
            "exact count)\n", r->radius, r->radius_estimate, r->first_pass_count, r->passes,
-           r->prune_passes ? " + in-memory prunes" : "", r->poisson_count);
+           r->prune_passes ? " + prunes" : "", r->poisson_count);
     if (o->params.smooth)
         printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell), %zu pulled "
-               "back to the input surface\n", o->params.iterations, r->open_cells, r->pulled);
-    if (r->tiles)
+               "back to the input surface\n", o->params.iterations, r->open_cells,
+               r->pulled_to_surface);
+    if (o->params.sharp)
+        printf("  sharp features: %llu input points labelled\n",
+               (unsigned long long)r->sharp_points);
+    if (r->in_memory)
+        printf("  in memory: one tile, no spill\n");
+    else
         printf("  tiles: %d in %d colours (largest %llu points), spill %.1f MB -> %.1f MB on "
                "disk\n", r->tiles, r->colours, (unsigned long long)r->largest_tile,
                r->spill.raw_bytes / 1e6, r->spill.disk_bytes / 1e6);
-    if (r->tiles)
-        printf("  time: bounds %.3f s, scan %.3f, tile %.3f, poisson %.3f, exact %.3f, smooth "
-               "%.3f, write %.3f, total %.3f (threads %d)\n", r->t_load, r->t_scan, r->t_tile,
-               r->t_poisson, r->t_exact, r->t_smooth, r->t_write, r->t_total,
-               o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
-    else
-        printf("  time: load %.3f s, radius %.3f, poisson %.3f, exact %.3f, smooth %.3f, write "
-               "%.3f, total %.3f (threads %d)\n", r->t_load, r->t_radius, r->t_poisson,
-               r->t_exact, r->t_smooth, r->t_write, r->t_total,
-               o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
+    printf("  time: bounds %.3f s, scan %.3f, %s %.3f, poisson %.3f, exact %.3f, smooth %.3f, "
+           "records %.3f, write %.3f, total %.3f (threads %d)\n", t->bounds, t->scan,
+           r->in_memory ? "load" : "tile", t->tile, t->poisson, t->exact, t->smooth, t->records,
+           info->t_write, info->t_total,
+           o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
 }
 
 static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
@@ -410,11 +412,10 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     uint64_t target;
     int rc = -1;
     wpd_selection sel = {0};
-    uint64_t *file_count = NULL;
-    double *tile_box = NULL;
+    wpd_resample_result res = {0};
     char *metrics_json = NULL;
     wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
-                         .per_input = o->per_input, .params = &o->params};
+                         .per_input = o->per_input, .params = &o->params, .run = &res};
     double t0 = omp_get_wtime();
     if (parse_count(o->count_text, wpd_cloud_count(cloud), &target) || target == 0) {
         wpd_fail(err, WPD_E_USAGE, "-n %s: the point count must be a positive number or "
@@ -424,9 +425,6 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
     output_lattice(cloud, o, o->params.resolution);
-    uint32_t rs = wpd_cloud_header(cloud, 0)->schema.record_size;
-    int one_block = o->min_tiles <= 1 &&
-                    wpd_in_memory_bytes(wpd_cloud_count(cloud), rs) <= o->mem_bytes;
     if (target >= wpd_cloud_count(cloud) && !o->quiet)
         fprintf(stderr, "wpd resample: notice: -n %llu >= %llu input points: copying the "
                 "input\n", (unsigned long long)target,
@@ -434,15 +432,13 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.target = target;
     info.mem_bytes = o->mem_bytes;
     info.threads = o->params.threads > 0 ? o->params.threads : omp_get_max_threads();
-    if (one_block) {
-        rc = wpd_run_in_memory(cloud, target, &o->params, &o->progress, &sel, &file_count, &info,
-                               err);
-    } else {
-        char dir[1024];
-        wpd_engine_options eo = {target, o->mem_bytes, spill_dir(o, dir, sizeof dir),
-                                 o->min_tiles, o->params, &o->progress};
-        rc = wpd_run_out_of_core(cloud, &eo, &sel, &file_count, &tile_box, &info, err);
-    }
+    char dir[1024];
+    wpd_resample_options ro = {target, o->mem_bytes, spill_dir(o, dir, sizeof dir),
+                               o->min_tiles, o->params, &o->progress};
+    rc = wpd_resample_run(cloud, &ro, &res, err);
+    /* The selection borrows the result's arrays. */
+    sel = (wpd_selection){res.count, res.gid, res.xyz, res.records, res.record_size, res.moved,
+                          res.radius / 1000};
     info.dropped = wpd_cloud_dropped(cloud);
     if (rc == 0 && wpd_cloud_dropped(cloud) && !o->quiet)
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
@@ -450,7 +446,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     double tw = omp_get_wtime();
     wpd_progress_phase(&o->progress, "write", sel.n, "points");
     if (rc == 0)
-        rc = write_outputs(&sel, cloud, file_count, o, err);
+        rc = write_outputs(&sel, cloud, res.file_count, o, err);
     wpd_progress_add(&o->progress, rc == 0 ? sel.n : 0);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
@@ -467,9 +463,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (rc == 0 && o->report)
         rc = wpd_report_write(o->report, &info, err);
 done:
-    wpd_selection_free(&sel);
-    free(file_count);
-    free(tile_box);
+    wpd_resample_result_free(&res);
     free(metrics_json);
     wpd_cloud_close(cloud);
     return rc;

@@ -52,8 +52,9 @@ static void write_phases(FILE *f, const wpd_run_info *r)
     fputs("  \"seconds\": {", f);
     const char *names[] = {"load", "scan", "tile", "radius", "poisson", "exact", "smooth",
                            "write", "total"};
-    const double v[] = {r->t_load, r->t_scan, r->t_tile, r->t_radius, r->t_poisson,
-                        r->t_exact, r->t_smooth, r->t_write, r->t_total};
+    const wpd_resample_timings *t = &r->run->time;
+    const double v[] = {t->bounds, t->scan, t->tile, t->plan, t->poisson,
+                        t->exact, t->smooth + t->records, r->t_write, r->t_total};
     for (int i = 0; i < 9; i++) {
         fprintf(f, "%s\"%s\": ", i ? ", " : "", names[i]);
         wpd_json_number(f, v[i]);
@@ -61,16 +62,20 @@ static void write_phases(FILE *f, const wpd_run_info *r)
     fputs("},\n", f);
 }
 
-static void write_tiles(FILE *f, const wpd_run_info *r)
+static void write_tiles(FILE *f, const wpd_run_info *info)
 {
+    const wpd_resample_result *r = info->run;
     double ratio = r->spill.disk_bytes ? (double)r->spill.raw_bytes / r->spill.disk_bytes : 0;
     fprintf(f, "  \"spill\": {\"points\": %llu, \"raw_bytes\": %llu, \"disk_bytes\": %llu, "
                "\"ratio\": ", (unsigned long long)r->spill.points,
             (unsigned long long)r->spill.raw_bytes, (unsigned long long)r->spill.disk_bytes);
     wpd_json_number(f, ratio);
+    /* A cloud held in memory is one tile, reported as none: no spill. */
+    int tiles = r->in_memory ? 0 : r->tiles;
     fprintf(f, "},\n  \"tiles\": {\"count\": %d, \"colours\": %d, \"largest_points\": %llu, "
-               "\"boxes\": [", r->tiles, r->colours, (unsigned long long)r->largest_tile);
-    for (int t = 0; t < r->tiles; t++) {
+               "\"boxes\": [", tiles, r->in_memory ? 0 : r->colours,
+            (unsigned long long)(r->in_memory ? 0 : r->largest_tile));
+    for (int t = 0; t < tiles; t++) {
         fputs(t ? ", {\"min\": [" : "{\"min\": [", f);
         for (int k = 0; k < 6; k++) {
             wpd_json_number(f, r->tile_box[6 * t + k]);
@@ -82,6 +87,7 @@ static void write_tiles(FILE *f, const wpd_run_info *r)
 
 static void write_body(FILE *f, const wpd_run_info *r)
 {
+    const wpd_resample_result *run = r->run;
     fputs("{\n", f);
     write_inputs(f, r);
     field_str(f, "output", r->output);
@@ -89,15 +95,15 @@ static void write_body(FILE *f, const wpd_run_info *r)
     fprintf(f, "  \"threads\": %d,\n", r->threads);
     write_options(f, r);
     fprintf(f, "  \"input_points\": %llu,\n  \"dropped_non_finite\": %llu,\n"
-               "  \"output_points\": %zu,\n", (unsigned long long)r->input_points,
-            (unsigned long long)r->dropped, r->count);
-    field_num(f, "radius_estimate", r->radius_estimate, 1);
-    field_num(f, "radius", r->radius, 1);
+               "  \"output_points\": %zu,\n", (unsigned long long)run->input_points,
+            (unsigned long long)r->dropped, run->count);
+    field_num(f, "radius_estimate", run->radius_estimate, 1);
+    field_num(f, "radius", run->radius, 1);
     fprintf(f, "  \"first_pass_points\": %zu,\n  \"poisson_points\": %zu,\n"
                "  \"poisson_passes\": %d,\n  \"prune_passes\": %d,\n"
                "  \"open_cells\": %zu,\n  \"pulled_to_surface\": %zu,\n",
-            r->first_pass_count, r->poisson_count, r->passes, r->prune_passes, r->open_cells,
-            r->pulled);
+            run->first_pass_count, run->poisson_count, run->passes, run->prune_passes,
+            run->open_cells, run->pulled_to_surface);
     write_phases(f, r);
     write_tiles(f, r);
     fprintf(f, "  \"peak_rss_bytes\": %lld,\n", (long long)r->peak_rss_kb * 1024);

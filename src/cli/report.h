@@ -8,8 +8,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
-#include "ooc/spill.h"
-#include "wpd/wpd.h"
+#include "resample/resample.h"
 
 typedef struct wpd_run_info {
     /* what was asked */
@@ -22,17 +21,9 @@ typedef struct wpd_run_info {
     int threads;
     const wpd_params *params;
     /* what happened */
-    uint64_t input_points, dropped;
-    size_t count;
-    double radius, radius_estimate;
-    size_t first_pass_count, poisson_count;
-    int passes, prune_passes;
-    size_t open_cells, pulled;
-    int tiles, colours;           /* 0: one block in memory */
-    uint64_t largest_tile;
-    const double *tile_box;       /* [6 tiles] absolute min xyz, max xyz */
-    wpd_spill_stats spill;
-    double t_load, t_scan, t_tile, t_radius, t_poisson, t_exact, t_smooth, t_write, t_total;
+    const wpd_resample_result *run;
+    uint64_t dropped;             /* non-finite points dropped */
+    double t_write, t_total;
     long peak_rss_kb;
     const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
 } wpd_run_info;

@@ -2,6 +2,8 @@
  * Poisson pass, refinement, exact count, smoothing, sharp features,
  * determinism. */
 #include <math.h>
+#include <stdio.h>
+#include <unistd.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,7 +21,9 @@
 #include "wpd/refine.h"
 #include "wpd/sharp.h"
 #include "wpd/smooth.h"
-#include "wpd/wpd.h"
+#include "io/cloud.h"
+#include "resample/resample.h"
+#include "wpd/params.h"
 
 static double unit(uint64_t *state)
 {
@@ -235,14 +239,39 @@ TEST(wpd_refine_follows_eq_6)
     CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_GAVE_UP);
 }
 
-static int run(const scan *s, size_t target, const wpd_params *p, wpd_result *r)
+/* The scene as a binary PLY (x y z doubles, file order = global index)
+ * in a fresh directory, resampled by the driver: in memory (min_tiles 0)
+ * or through at least min_tiles tiles of spill in the same directory. */
+static int run_tiled(const scan *s, size_t target, const wpd_params *p, int min_tiles,
+                     wpd_resample_result *r)
 {
-    wpd_block b = {s->n, s->xyz, s->gid, NULL, 0, NULL, 0, NULL, 0};
-    wpd_error err;
-    int rc = wpd_run_block(&b, target, p, r, &err);
+    char dir[] = "/tmp/wpd-unit-XXXXXX", path[64];
+    if (!mkdtemp(dir))
+        return -1;
+    snprintf(path, sizeof path, "%s/cloud.ply", dir);
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -1;
+    fprintf(f, "ply\nformat binary_little_endian 1.0\nelement vertex %zu\nproperty double x\n"
+               "property double y\nproperty double z\nend_header\n", s->n);
+    fwrite(s->xyz, 3 * sizeof(double), s->n, f);
+    fclose(f);
+    wpd_error err = {0};
+    const char *paths[1] = {path};
+    wpd_cloud *cloud = wpd_cloud_open(paths, 1, &err);
+    wpd_resample_options o = {target, (size_t)1 << 30, dir, min_tiles, *p, NULL};
+    int rc = cloud ? wpd_resample_run(cloud, &o, r, &err) : -1;
     if (rc < 0)
-        fprintf(stderr, "  wpd_run_block: %s\n", err.msg);
+        fprintf(stderr, "  wpd_resample_run: %s\n", err.msg);
+    wpd_cloud_close(cloud);
+    unlink(path);
+    rmdir(dir);
     return rc;
+}
+
+static int run(const scan *s, size_t target, const wpd_params *p, wpd_resample_result *r)
+{
+    return run_tiled(s, target, p, 0, r);
 }
 
 TEST(wpd_refinement_lands_within_five_percent)
@@ -255,12 +284,12 @@ TEST(wpd_refinement_lands_within_five_percent)
     for (int m = 0; m < 2; m++) {
         p.radius_method = m ? WPD_RADIUS_MULTISCALE : WPD_RADIUS_PAPER;
         for (int t = 0; t < 4; t++) {
-            wpd_result r;
+            wpd_resample_result r;
             CHECK(run(&s, targets[t], &p, &r) == 0);
             CHECK_MSG(r.poisson_count >= targets[t] && r.poisson_count <= 1.05 * targets[t],
                       "method %d target %zu: %zu after %d passes", m, targets[t], r.poisson_count,
                       r.passes);
-            wpd_result_free(&r);
+            wpd_resample_result_free(&r);
         }
     }
     scan_free(&s);
@@ -273,20 +302,20 @@ TEST(wpd_exact_count_for_any_target)
     wpd_params_default(&p);
     size_t targets[4] = {1, 1000, s.n / 10, s.n / 2};
     for (int t = 0; t < 4; t++) {
-        wpd_result r;
+        wpd_resample_result r;
         CHECK(run(&s, targets[t], &p, &r) == 0);
         CHECK_MSG(r.count == targets[t], "target %zu: %zu samples", targets[t], r.count);
         for (size_t i = 1; i < r.count; i++)
             CHECK(r.gid[i - 1] < r.gid[i]);
-        for (size_t i = 0; i < r.count; i++)
-            CHECK(s.gid[r.index[i]] == r.gid[i]);
-        wpd_result_free(&r);
+        for (size_t i = 0; i < r.count; i++) /* input points, unmoved without smoothing */
+            CHECK(r.gid[i] < s.n);
+        wpd_resample_result_free(&r);
     }
     /* Asking for more than there is returns every point unchanged. */
-    wpd_result r;
+    wpd_resample_result r;
     CHECK(run(&s, s.n + 5, &p, &r) == 0);
     CHECK(r.count == s.n);
-    wpd_result_free(&r);
+    wpd_resample_result_free(&r);
     scan_free(&s);
 }
 
@@ -296,7 +325,7 @@ TEST(wpd_result_is_the_same_for_any_thread_count)
     wpd_params p;
     wpd_params_default(&p);
     p.seed = 1234;
-    wpd_result a, b, c;
+    wpd_resample_result a, b, c;
     p.threads = 1;
     CHECK(run(&s, 1500, &p, &a) == 0);
     p.threads = 2;
@@ -306,13 +335,13 @@ TEST(wpd_result_is_the_same_for_any_thread_count)
     CHECK(memcmp(a.gid, b.gid, a.count * 8) == 0);
     CHECK(memcmp(a.xyz, b.xyz, 3 * a.count * 8) == 0);
     CHECK(memcmp(b.xyz, c.xyz, 3 * b.count * 8) == 0);
-    wpd_result_free(&c);
+    wpd_resample_result_free(&c);
     p.seed = 99;
     CHECK(run(&s, 1500, &p, &c) == 0);
     CHECK(memcmp(a.gid, c.gid, a.count * 8) != 0);
-    wpd_result_free(&a);
-    wpd_result_free(&b);
-    wpd_result_free(&c);
+    wpd_resample_result_free(&a);
+    wpd_resample_result_free(&b);
+    wpd_resample_result_free(&c);
     scan_free(&s);
 }
 
@@ -448,33 +477,38 @@ TEST(wpd_smoothing_projects_back_onto_a_curved_surface)
     free(t); free(s); free(idx); free(xyz); free(gid);
 }
 
-TEST(wpd_pipeline_respects_neighbour_samples)
+/* The driver gives the same samples in memory and through tiles (the
+ * tiled Poisson pass sees the one-block decisions), with no two samples
+ * closer than r across the tile borders. */
+TEST(wpd_tiles_give_the_one_block_samples)
 {
     scan s = scene(0.4, 8);
-    double fixed[3 * 3];
-    for (int f = 0; f < 3; f++)
-        memcpy(fixed + 3 * f, s.xyz + 3 * (size_t)(500 + 2000 * f), 24);
-    wpd_block b = {s.n, s.xyz, s.gid, fixed, 3, fixed, 3, NULL, 0};
     wpd_params p;
     wpd_params_default(&p);
     p.smooth = 0;
-    wpd_result r;
-    wpd_error err;
-    CHECK(wpd_run_block(&b, 800, &p, &r, &err) == 0);
-    CHECK(r.count == 800);
-    size_t bad = 0;
-    for (size_t i = 0; i < r.count; i++)
-        for (int f = 0; f < 3; f++) {
-            const double *a = r.xyz + 3 * i, *q = fixed + 3 * f;
-            double dx = a[0] - q[0], dy = a[1] - q[1], dz = a[2] - q[2];
-            bad += dx * dx + dy * dy + dz * dz < r.radius * r.radius;
-        }
-    CHECK_MSG(bad == 0, "%zu samples within r = %g of neighbour samples", bad, r.radius);
-    wpd_result_free(&r);
-    /* With smoothing, neighbour samples take part as fixed neighbours. */
-    p.smooth = 1;
-    CHECK(wpd_run_block(&b, 800, &p, &r, &err) == 0 && r.count == 800);
-    wpd_result_free(&r);
+    for (int sharp = 0; sharp < 2; sharp++) {
+        p.sharp = sharp;
+        wpd_resample_result one, four;
+        CHECK(run(&s, 800, &p, &one) == 0 && one.in_memory && one.count == 800);
+        CHECK(run_tiled(&s, 800, &p, 4, &four) == 0 && !four.in_memory && four.tiles >= 4);
+        CHECK(four.count == 800);
+        CHECK_MSG(memcmp(one.gid, four.gid, 800 * 8) == 0 &&
+                      memcmp(one.xyz, four.xyz, 3 * 800 * 8) == 0,
+                  "sharp %d: tiles differ from one block (first pass %zu / %zu, before the "
+                  "exact count %zu / %zu, radius %.9g / %.9g)", sharp, one.first_pass_count,
+                  four.first_pass_count, one.poisson_count, four.poisson_count, one.radius,
+                  four.radius);
+        size_t close = 0;
+        for (size_t i = 0; i < four.count && !sharp; i++)
+            for (size_t j = i + 1; j < four.count; j++) {
+                const double *a = four.xyz + 3 * i, *q = four.xyz + 3 * j;
+                double dx = a[0] - q[0], dy = a[1] - q[1], dz = a[2] - q[2];
+                close += dx * dx + dy * dy + dz * dz < four.radius * four.radius * (1 - 1e-12);
+            }
+        CHECK_MSG(close == 0, "%zu pairs closer than r = %g", close, four.radius);
+        wpd_resample_result_free(&one);
+        wpd_resample_result_free(&four);
+    }
     scan_free(&s);
 }
 
@@ -546,14 +580,14 @@ TEST(wpd_sharp_pipeline_labels_and_counts)
     wpd_params p;
     wpd_params_default(&p);
     p.sharp = 1;
-    wpd_result r;
+    wpd_resample_result r;
     CHECK(run(&s, 1000, &p, &r) == 0);
     CHECK(r.count == 1000 && r.edge != NULL && r.sharp_points > 0);
     size_t edges = 0;
     for (size_t i = 0; i < r.count; i++)
         edges += r.edge[i];
     CHECK(edges > 0 && edges < r.count);
-    wpd_result_free(&r);
+    wpd_resample_result_free(&r);
     scan_free(&s);
 }
 
@@ -562,16 +596,13 @@ TEST(wpd_rejects_bad_arguments)
     scan s = scene(1.0, 10);
     wpd_params p;
     wpd_params_default(&p);
-    wpd_block b = {s.n, s.xyz, s.gid, NULL, 0, NULL, 0, NULL, 0};
-    wpd_result r;
-    wpd_error err;
-    CHECK(wpd_run_block(&b, 0, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
-    CHECK(strstr(err.msg, "target") != NULL);
+    wpd_resample_result r;
+    CHECK(run(&s, 0, &p, &r) < 0);
     p.k = 2;
-    CHECK(wpd_run_block(&b, 10, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
+    CHECK(run(&s, 10, &p, &r) < 0);
     wpd_params_default(&p);
-    b.nfixed = 3;
-    CHECK(wpd_run_block(&b, 10, &p, &r, &err) < 0 && err.code == WPD_E_USAGE);
+    p.lambda = 0;
+    CHECK(run(&s, 10, &p, &r) < 0);
     scan_free(&s);
 }
 

@@ -1,4 +1,4 @@
-#include "ooc/plan.h"
+#include "resample/plan.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -11,6 +11,9 @@
  *   counts, exactly as the in-memory path computes it.
  * - the density grid (cubic cells, at most WPD_SCAN_GRID along the longest
  *   axis) counts points per cell for the tile planner.
+ * - occupied voxels at the paper's one scale (paper_frac x the longest
+ *   side, aligned to the frame origin), for its radius estimate (eq. 3-4),
+ *   exactly where the voxels number at most WPD_SCAN_PAPER_CELLS.
  */
 #ifndef WPD_SCAN_H
 #define WPD_SCAN_H
@@ -24,6 +27,7 @@
 #include "wpd/radius.h"
 
 #define WPD_SCAN_GRID 128
+#define WPD_SCAN_PAPER_CELLS (1u << 24) /* a bit each, per thread */
 
 typedef struct wpd_scan {
     uint64_t count;                   /* finite points */
@@ -38,22 +42,22 @@ typedef struct wpd_scan {
     int dim[3];                       /* density grid cells per axis */
     double cell, inv_cell;            /* density grid cell edge, its inverse */
     uint64_t *density;                /* [dim0 * dim1 * dim2], x fastest */
+    double paper_frac;                /* the paper's voxel edge / longest side */
+    double paper_edge;                /* that edge, and the voxels occupied at it */
+    uint64_t paper_voxels;            /* (0: too many voxels to count exactly) */
     double bounds_seconds, scan_seconds;
 } wpd_scan;
 
 /* Runs the passes over cloud (rewound before and after) on up to `threads`
  * threads (>= 1; the counts do not depend on it): as many as fit in `room`
- * bytes beside the first thread's working set (wpd_threads_within).
+ * bytes beside the first thread's working set (wpd_threads_within, budget.h).
+ * paper_frac: the paper's voxel edge over the longest side (> 0).
  * voxel_cap: the most voxel keys a thread's ladder holds at once (memory:
  * ~32 bytes each). Returns 0, or -1 with err set (read errors; WPD_E_INPUT
  * when there is no finite point). progress (may be NULL) gets phases
  * "bounds" (when it runs) and "scan". */
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, size_t room,
-                 wpd_progress *progress, wpd_scan *out, wpd_error *err);
-
-/* Threads that fit: min(threads, 1 + room / per_thread), at least 1. Each
- * thread beyond the first needs per_thread bytes of its own. */
-int wpd_threads_within(int threads, size_t room, size_t per_thread);
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double paper_frac, int threads,
+                 size_t room, wpd_progress *progress, wpd_scan *out, wpd_error *err);
 
 /* Density grid cell of frame point p (clamped into the grid). Inline: the
  * scan and the tiler ask it for every point. */

@@ -1,4 +1,6 @@
-#include "ooc/scan.h"
+#include "resample/scan.h"
+
+#include "resample/budget.h"
 
 #include <math.h>
 #include <omp.h>
@@ -12,7 +14,6 @@
  * serial, under a lock) and counts them into its own counter while the
  * other threads read, so reading overlaps counting without a thread per
  * batch join, which stalls whenever a thread of the team is descheduled. */
-enum { BATCH_POINTS = 65536 };
 
 /* What one thread has counted; combined at the end of the pass. */
 typedef struct counter {
@@ -21,6 +22,7 @@ typedef struct counter {
     uint64_t *file_count;     /* [nfiles] */
     wpd_ladder ladder;        /* scan pass only */
     uint64_t *density;        /* scan pass only */
+    uint8_t *paper;           /* scan pass only: bitmap of the paper's voxels, or NULL */
     int failed;               /* 1 out of memory */
 } counter;
 
@@ -31,8 +33,36 @@ static void counters_free(counter *c, int threads)
         free(c[t].file_count);
         wpd_ladder_free(&c[t].ladder);
         free(c[t].density);
+        free(c[t].paper);
     }
     free(c);
+}
+
+/* Voxels of the paper's scale along axis a. */
+static uint64_t paper_dim(const wpd_scan *s, int a)
+{
+    return (uint64_t)(s->extent[a] / s->paper_edge) + 1;
+}
+
+/* Voxels of the paper's scale in the box: 0 when more than the bitmap
+ * holds (the estimate then interpolates the ladder's counts). */
+static uint64_t paper_cells(const wpd_scan *s)
+{
+    double cells = 1;
+    for (int a = 0; a < 3; a++)
+        cells *= (double)paper_dim(s, a);
+    return cells <= WPD_SCAN_PAPER_CELLS ? (uint64_t)cells : 0;
+}
+
+static void paper_put(const wpd_scan *s, uint8_t *bits, const double p[3])
+{
+    uint64_t key = 0;
+    double inv = 1.0 / s->paper_edge; /* as wpd_voxel_counts indexes voxels */
+    for (int a = 2; a >= 0; a--) {
+        uint64_t i = (uint64_t)(p[a] * inv), dim = paper_dim(s, a);
+        key = key * dim + (i < dim ? i : dim - 1);
+    }
+    bits[key >> 3] |= (uint8_t)(1u << (key & 7));
 }
 
 /* Counters for the bounds pass (scan == NULL) or the scan pass. */
@@ -44,11 +74,12 @@ static counter *counters_new(wpd_cloud *cloud, const wpd_scan *scan, size_t voxe
     int ok = c != NULL;
     for (int t = 0; ok && t < threads; t++) {
         wpd_bounds_reset(&c[t].box);
-        ok = wpd_batch_init(&c[t].batch, BATCH_POINTS, rs) == 0 &&
+        ok = wpd_batch_init(&c[t].batch, WPD_BATCH_POINTS, rs) == 0 &&
              (c[t].file_count = calloc((size_t)wpd_cloud_nfiles(cloud), sizeof(uint64_t)));
         if (ok && scan)
             ok = wpd_ladder_init(&c[t].ladder, scan->extent, scan->count, voxel_cap) == 0 &&
-                 (c[t].density = calloc(cells, sizeof *c[t].density));
+                 (c[t].density = calloc(cells, sizeof *c[t].density)) &&
+                 (!paper_cells(scan) || (c[t].paper = calloc(paper_cells(scan) / 8 + 1, 1)));
     }
     if (!ok) {
         counters_free(c, threads);
@@ -69,6 +100,8 @@ static void count_batch(const wpd_scan *s, counter *c)
             p[a] = v < 0 ? 0 : v > s->extent[a] ? s->extent[a] : v;
         }
         c->density[wpd_scan_cell_of(s, p)]++;
+        if (c->paper)
+            paper_put(s, c->paper, p);
         c->failed = wpd_ladder_put(&c->ladder, p) != 0;
     }
 }
@@ -136,13 +169,7 @@ static void sum_counters(const counter *c, int threads, int nfiles, wpd_bounds *
 
 static size_t batch_bytes(const wpd_cloud *cloud)
 {
-    return (size_t)BATCH_POINTS * (wpd_cloud_header(cloud, 0)->schema.record_size + 24);
-}
-
-int wpd_threads_within(int threads, size_t room, size_t per_thread)
-{
-    size_t extra = room / (per_thread ? per_thread : 1);
-    return threads <= 1 ? 1 : (size_t)(threads - 1) <= extra ? threads : 1 + (int)extra;
+    return wpd_budget_batch_bytes(wpd_cloud_header(cloud, 0)->schema.record_size);
 }
 
 /* Pass 1 when the headers declare no usable box: the actual one. */
@@ -173,6 +200,7 @@ static void set_frame(wpd_scan *s, const wpd_bounds *box)
 static void init_grid(wpd_scan *s)
 {
     double longest = fmax(s->extent[0], fmax(s->extent[1], s->extent[2]));
+    s->paper_edge = longest > 0 ? s->paper_frac * longest : 1; /* one point: any edge */
     s->cell = longest > 0 ? longest / WPD_SCAN_GRID * (1 + 1e-9) : 1.0;
     s->inv_cell = 1.0 / s->cell;
     for (int a = 0; a < 3; a++) {
@@ -193,6 +221,14 @@ static int combine(wpd_scan *s, counter *c, int threads, size_t cells)
             return -1;
     }
     memcpy(s->density, c[0].density, cells * sizeof *s->density);
+    uint64_t bytes = paper_cells(s) ? paper_cells(s) / 8 + 1 : 0;
+    s->paper_voxels = 0;
+    for (uint64_t i = 0; i < bytes; i++) {
+        uint8_t b = 0;
+        for (int t = 0; t < threads; t++)
+            b |= c[t].paper[i];
+        s->paper_voxels += (uint64_t)__builtin_popcount(b);
+    }
     return wpd_ladder_finish(&c[0].ladder, s->edge, s->voxels, &s->nscales);
 }
 
@@ -220,10 +256,11 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
     return rc;
 }
 
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, int threads, size_t room,
-                 wpd_progress *progress, wpd_scan *out, wpd_error *err)
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double paper_frac, int threads,
+                 size_t room, wpd_progress *progress, wpd_scan *out, wpd_error *err)
 {
     memset(out, 0, sizeof *out);
+    out->paper_frac = paper_frac;
     threads = threads < 1 ? 1 : threads;
     out->nfiles = wpd_cloud_nfiles(cloud);
     out->file_count = calloc((size_t)out->nfiles, sizeof *out->file_count);

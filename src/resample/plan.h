@@ -17,7 +17,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
-#include "ooc/scan.h"
+#include "resample/scan.h"
 
 typedef struct wpd_tile {
     int lo[3], hi[3];          /* grid cells [lo, hi) per axis */

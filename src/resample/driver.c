@@ -1,0 +1,259 @@
+/* driver.c - wpd_resample_run: the phases of resample.h, once, over a
+ * tile store that is either the spill or one tile in memory. */
+#include "resample/resample.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "resample/budget.h"
+#include "resample/run.h"
+#include "wpd/ladder.h"
+#include "wpd/radius.h"
+
+static uint32_t record_size_of(const wpd_cloud *cloud)
+{
+    return wpd_cloud_header(cloud, 0)->schema.record_size;
+}
+
+int wpd_resample_in_memory(const wpd_cloud *cloud, const wpd_resample_options *opt)
+{
+    return opt->min_tiles <= 1 &&
+           wpd_budget_in_memory_bytes(wpd_cloud_count(cloud), record_size_of(cloud)) <=
+               opt->mem_bytes;
+}
+
+/* Occupied voxels at edge l, interpolated log-log between the two counted
+ * scales around it (the ladder counts powers of two): for a paper scale
+ * too fine to count exactly. */
+static double voxels_at(const wpd_scan *s, double l)
+{
+    int lo = -1, hi = -1;
+    for (int i = 0; i < s->nscales; i++) {
+        if (s->voxels[i] == 0)
+            continue;
+        if (s->edge[i] <= l && (lo < 0 || s->edge[i] > s->edge[lo]))
+            lo = i;
+        if (s->edge[i] >= l && (hi < 0 || s->edge[i] < s->edge[hi]))
+            hi = i;
+    }
+    if (lo < 0 || hi < 0 || lo == hi)
+        return (double)s->voxels[lo >= 0 ? lo : hi >= 0 ? hi : 0];
+    double f = log(l / s->edge[lo]) / log(s->edge[hi] / s->edge[lo]);
+    return exp(log((double)s->voxels[lo]) * (1 - f) + log((double)s->voxels[hi]) * f);
+}
+
+/* The radius estimate, from the scan's voxel counts: the multiscale one
+ * (radius.h), or the paper's eq. 3-4 at voxel_frac x the longest side. */
+static double estimate_radius(const wpd_run *run)
+{
+    const wpd_params *p = run->p;
+    const wpd_scan *s = &run->scan;
+    if (p->radius > 0)
+        return p->radius;
+    if (p->radius_method == WPD_RADIUS_PAPER) {
+        double m = s->paper_voxels ? (double)s->paper_voxels : voxels_at(s, s->paper_edge);
+        return wpd_radius_paper_formula(m, s->paper_edge, run->opt->target, p->lambda);
+    }
+    wpd_radius_info ri;
+    wpd_radius_from_counts(s->edge, s->voxels, s->nscales, run->opt->target, p->density, &ri);
+    return ri.radius;
+}
+
+static int copy_tile_boxes(wpd_run *run)
+{
+    const wpd_scan *s = &run->scan;
+    double *box = malloc((size_t)run->plan.ntiles * 6 * sizeof *box);
+    if (!box)
+        return -1;
+    for (int t = 0; t < run->plan.ntiles; t++)
+        for (int a = 0; a < 3; a++) {
+            const wpd_tile *tile = &run->plan.tiles[t];
+            double lo = fmax(tile->box_lo[a], 0), hi = fmin(tile->box_hi[a], s->extent[a]);
+            box[6 * t + a] = lo + s->origin[a];
+            box[6 * t + 3 + a] = hi + s->origin[a];
+        }
+    run->res->tile_box = box;
+    return 0;
+}
+
+static int check_budget(const wpd_run *run, wpd_error *err)
+{
+    size_t need = wpd_budget_min(run->opt->target, run->record_size);
+    if (run->res->in_memory || run->opt->mem_bytes >= need)
+        return 0;
+    return wpd_fail(err, WPD_E_MEMORY,
+                    "memory budget too small: %zu MiB given, at least %zu MiB needed for %llu "
+                    "output points from %llu input points (raise --mem or lower -n)",
+                    run->opt->mem_bytes >> 20, (need >> 20) + 1,
+                    (unsigned long long)run->opt->target,
+                    (unsigned long long)wpd_cloud_count(run->cloud));
+}
+
+/* Spill files with the whole write-buffer budget, whatever the number of
+ * tiles (larger chunks compress better; the peak does not depend on the
+ * input's size). With one thread, compression runs on the tiling thread;
+ * with more, as many compression threads wait beside the tilers, each with
+ * spares within the write budget where 64 KB buffers allow (at least 2). */
+static int open_spill(wpd_run *run, wpd_error *err)
+{
+    wpd_spill_options so;
+    wpd_spill_default_options(&so);
+    so.threads = run->threads > 1 ? run->threads : 0;
+    if (so.threads > 0) {
+        size_t room = WPD_BUDGET_SPILL_BUFFERS / (64 << 10), tiles = (size_t)run->plan.ntiles;
+        size_t fit = room > tiles ? (room - tiles) / (size_t)so.threads : 0;
+        so.spares_per_thread = fit < 2 ? 2 : fit > WPD_SPILL_SPARES_PER_THREAD
+                                                  ? WPD_SPILL_SPARES_PER_THREAD
+                                                  : (int)fit;
+    }
+    size_t buffers = (size_t)run->plan.ntiles + (size_t)so.threads * (size_t)so.spares_per_thread;
+    size_t per_tile = WPD_BUDGET_SPILL_BUFFERS / buffers;
+    so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
+    return wpd_tiles_open_spill(&run->tiles, run->opt->tmpdir, run->plan.ntiles, &so, err);
+}
+
+/* scan -> radius -> plan: the frame, the radius and the tiles. */
+static int scan_and_plan(wpd_run *run, wpd_error *err)
+{
+    wpd_resample_result *res = run->res;
+    size_t mem = run->opt->mem_bytes;
+    size_t room = mem > WPD_BUDGET_FIXED_BYTES ? mem - WPD_BUDGET_FIXED_BYTES : 0;
+    if (wpd_scan_run(run->cloud, WPD_LADDER_KEYS, run->p->voxel_frac, run->threads, room,
+                     run->opt->progress, &run->scan, err))
+        return -1;
+    res->time.bounds = run->scan.bounds_seconds;
+    res->time.scan = run->scan.scan_seconds;
+    res->input_points = run->scan.count;
+    res->nfiles = run->scan.nfiles;
+    res->file_count = malloc((size_t)res->nfiles * sizeof *res->file_count);
+    if (!res->file_count)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    memcpy(res->file_count, run->scan.file_count, (size_t)res->nfiles * sizeof *res->file_count);
+    double t = omp_get_wtime();
+    res->radius_estimate = res->radius = estimate_radius(run);
+    /* The halo carries the input surface across borders for smoothing:
+     * samples move less than r, and the refinement changes r by little. */
+    run->halo = 2.5 * res->radius;
+    /* The input spacing is about 1.5 r sqrt(n / N); k = 13 neighbours lie
+     * within ~1.7 spacings. */
+    run->surface_dk = 2.5 * res->radius_estimate *
+                      sqrt((double)run->opt->target / (double)run->scan.count);
+    uint64_t max_points = res->in_memory ? run->scan.count
+                                         : wpd_budget_max_tile_points(mem, run->opt->target,
+                                                                      run->record_size);
+    if (wpd_plan_tiles(&run->scan, max_points, res->in_memory ? 1 : run->opt->min_tiles,
+                       run->halo, &run->plan, err))
+        return -1;
+    res->tiles = run->plan.ntiles;
+    res->colours = run->plan.ncolours;
+    res->largest_tile = run->plan.largest;
+    if (copy_tile_boxes(run) || !(run->store = calloc((size_t)run->plan.ntiles,
+                                                      sizeof *run->store)))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    res->time.plan = omp_get_wtime() - t;
+    return 0;
+}
+
+static int tile_phase(wpd_run *run, wpd_error *err)
+{
+    double t = omp_get_wtime();
+    int rc = run->res->in_memory ? wpd_tiles_open_memory(&run->tiles, run->scan.count, err)
+                                 : open_spill(run, err);
+    if (rc)
+        return -1;
+    wpd_progress_phase(run->opt->progress, run->res->in_memory ? "load" : "tile",
+                       run->scan.count, "points");
+    if (wpd_tile_pass(run, err))
+        return -1;
+    wpd_progress_end(run->opt->progress);
+    wpd_tiles_stats(&run->tiles, &run->res->spill);
+    run->res->time.tile = omp_get_wtime() - t;
+    return 0;
+}
+
+static int finish(wpd_run *run, wpd_error *err)
+{
+    double t = omp_get_wtime();
+    wpd_progress_phase(run->opt->progress, "records", run->scan.count, "points");
+    if (wpd_merge_phase(run, err) || wpd_records_phase(run, err))
+        return -1;
+    wpd_progress_end(run->opt->progress);
+    run->res->time.records = omp_get_wtime() - t;
+    return 0;
+}
+
+static int run_phases(wpd_run *run, wpd_error *err)
+{
+    wpd_resample_timings *tm = &run->res->time;
+    if (scan_and_plan(run, err) || tile_phase(run, err))
+        return -1;
+    if (run->opt->target >= run->scan.count)
+        return wpd_take_all_phase(run, err) || finish(run, err) ? -1 : 0;
+    double t = omp_get_wtime();
+    if (wpd_poisson_phase(run, err))
+        return -1;
+    tm->poisson = omp_get_wtime() - t;
+    t = omp_get_wtime();
+    if (wpd_exact_phase(run, err))
+        return -1;
+    tm->exact = omp_get_wtime() - t;
+    t = omp_get_wtime();
+    if (wpd_smooth_phase(run, err))
+        return -1;
+    tm->smooth = omp_get_wtime() - t;
+    return finish(run, err);
+}
+
+static int check_options(const wpd_resample_options *opt, wpd_error *err)
+{
+    const wpd_params *p = &opt->params;
+    if (opt->target < 1)
+        return wpd_fail(err, WPD_E_USAGE, "the target count must be at least 1");
+    if (!(p->lambda > 0) || !(p->voxel_frac > 0) || !(p->density > 0))
+        return wpd_fail(err, WPD_E_USAGE, "lambda %g, voxel_frac %g and density %g must be "
+                        "positive", p->lambda, p->voxel_frac, p->density);
+    if (p->k < 3 || p->k > 64)
+        return wpd_fail(err, WPD_E_USAGE, "k = %d neighbours, expected 3..64", p->k);
+    if (p->iterations < 0)
+        return wpd_fail(err, WPD_E_USAGE, "%d smoothing iterations", p->iterations);
+    return 0;
+}
+
+int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
+                     wpd_resample_result *res, wpd_error *err)
+{
+    memset(res, 0, sizeof *res);
+    double t0 = omp_get_wtime();
+    if (check_options(opt, err))
+        return -1;
+    wpd_run run = {.opt = opt, .p = &opt->params, .cloud = cloud, .res = res};
+    run.record_size = res->record_size = record_size_of(cloud);
+    run.threads = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
+    res->in_memory = wpd_resample_in_memory(cloud, opt);
+    if (check_budget(&run, err))
+        return -1;
+    int rc = run_phases(&run, err);
+    wpd_run_store_clear(&run);
+    free(run.store);
+    wpd_tiles_close(&run.tiles);
+    wpd_plan_free(&run.plan);
+    wpd_scan_free(&run.scan);
+    if (rc)
+        wpd_resample_result_free(res);
+    else
+        res->time.total = omp_get_wtime() - t0;
+    return rc;
+}
+
+void wpd_resample_result_free(wpd_resample_result *res)
+{
+    free(res->gid);
+    free(res->xyz);
+    free(res->records);
+    free(res->edge);
+    free(res->file_count);
+    free(res->tile_box);
+    memset(res, 0, sizeof *res);
+}

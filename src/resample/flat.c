@@ -1,0 +1,162 @@
+/* flat.c - the flat sample set (flat.h), and the two steps that work on
+ * it: pruning an overshooting pass, and the exact count. Both see every
+ * sample at once, so they keep the Poisson property across tiles. */
+#include "resample/flat.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/sort.h"
+#include "wpd/exact.h"
+#include "wpd/refine.h"
+
+void wpd_flat_free(wpd_flat *f)
+{
+    free(f->gid);
+    free(f->xyz);
+    free(f->edge);
+    free(f->tile);
+    memset(f, 0, sizeof *f);
+}
+
+/* Sorted position j of f comes from tile tile[j], sample local[from[j]]. */
+static void gather_sorted(const wpd_run *run, wpd_flat *f, const uint32_t *from,
+                          const uint32_t *local, uint32_t *tile_of)
+{
+    for (size_t j = 0; j < f->n; j++)
+        tile_of[j] = (uint32_t)f->tile[from[j]];
+    for (size_t j = 0; j < f->n; j++) {
+        const wpd_tile_samples *s = &run->store[tile_of[j]];
+        size_t i = local[from[j]];
+        memcpy(f->xyz + 3 * j, s->xyz + 3 * i, 3 * sizeof *f->xyz);
+        if (f->edge)
+            f->edge[j] = s->edge[i];
+        f->tile[j] = (int)tile_of[j];
+    }
+}
+
+/* Whether the samples carry sharp labels (not when every point was kept). */
+static int labelled(const wpd_run *run)
+{
+    for (int t = 0; t < run->plan.ntiles; t++)
+        if (run->store[t].edge)
+            return 1;
+    return 0;
+}
+
+int wpd_flat_from_store(const wpd_run *run, wpd_flat *f)
+{
+    size_t n = f->n = wpd_run_store_count(run), m = n ? n : 1;
+    int with_edge = labelled(run);
+    f->gid = malloc(m * sizeof *f->gid);
+    f->xyz = malloc(m * 3 * sizeof *f->xyz);
+    f->edge = with_edge ? malloc(m) : NULL;
+    f->tile = malloc(m * sizeof *f->tile);
+    uint64_t *tk = malloc(m * sizeof *tk);
+    uint32_t *from = malloc(m * sizeof *from), *tv = malloc(m * sizeof *tv);
+    uint32_t *local = malloc(m * sizeof *local);
+    int rc = f->gid && f->xyz && f->tile && (f->edge || !with_edge) && tk && from && tv &&
+                     local
+                 ? 0
+                 : -1;
+    size_t k = 0;
+    for (int t = 0; rc == 0 && t < run->plan.ntiles; t++)
+        for (size_t i = 0; i < run->store[t].n; i++, k++) {
+            f->gid[k] = run->store[t].gid[i];
+            f->tile[k] = t;
+            local[k] = (uint32_t)i;
+            from[k] = (uint32_t)k;
+        }
+    if (rc == 0) {
+        wpd_radix_sort_u64(f->gid, from, n, 64, tk, tv);
+        gather_sorted(run, f, from, local, tv);
+    }
+    free(tk);
+    free(from);
+    free(tv);
+    free(local);
+    return rc;
+}
+
+int wpd_flat_to_store(wpd_run *run, const wpd_flat *f, const uint32_t *idx, size_t m)
+{
+    wpd_run_store_clear(run);
+    size_t *count = calloc((size_t)run->plan.ntiles, sizeof *count);
+    if (!count)
+        return -1;
+    for (size_t i = 0; i < m; i++)
+        count[f->tile[idx[i]]]++;
+    int rc = 0;
+    for (int t = 0; t < run->plan.ntiles; t++)
+        if (wpd_samples_alloc(&run->store[t], count[t], f->edge != NULL))
+            rc = -1;
+    for (size_t i = 0; i < m && rc == 0; i++) {
+        wpd_tile_samples *s = &run->store[f->tile[idx[i]]];
+        s->gid[s->n] = f->gid[idx[i]];
+        memcpy(s->xyz + 3 * s->n, f->xyz + 3 * (size_t)idx[i], 3 * sizeof *s->xyz);
+        if (f->edge)
+            s->edge[s->n] = f->edge[idx[i]];
+        s->n++;
+    }
+    free(count);
+    return rc;
+}
+
+/* The flat set with the store freed (the memory peak is here) and room for
+ * an index list; on failure err is set. */
+static int take_flat(wpd_run *run, wpd_flat *f, uint32_t **idx, const char *what,
+                     wpd_error *err)
+{
+    if (wpd_flat_from_store(run, f) || !(*idx = malloc((f->n ? f->n : 1) * sizeof **idx)))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %s of %zu samples", what, f->n);
+    wpd_run_store_clear(run);
+    return 0;
+}
+
+int wpd_prune_phase(wpd_run *run, double r_lo, wpd_error *err)
+{
+    wpd_flat f = {0};
+    uint32_t *kept = NULL;
+    int rc = -1;
+    if (take_flat(run, &f, &kept, "pruning", err))
+        goto done;
+    long m = wpd_prune_to_range(f.xyz, f.gid, NULL, f.n, run->opt->target, r_lo, run->p->seed,
+                                run->threads, kept, &run->res->radius,
+                                &run->res->prune_passes, err);
+    if (m < 0)
+        goto done;
+    if (wpd_flat_to_store(run, &f, kept, (size_t)m)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
+        goto done;
+    }
+    rc = 0;
+done:
+    wpd_flat_free(&f);
+    free(kept);
+    return rc;
+}
+
+int wpd_exact_phase(wpd_run *run, wpd_error *err)
+{
+    wpd_flat f = {0};
+    uint32_t *idx = NULL;
+    int rc = -1;
+    if (take_flat(run, &f, &idx, "the exact count", err))
+        goto done;
+    for (size_t i = 0; i < f.n; i++)
+        idx[i] = (uint32_t)i;
+    wpd_exact_input in = {f.xyz, f.gid, NULL, 0, run->res->radius, run->threads};
+    int sweeps = 0;
+    long kept = wpd_exact_count(&in, idx, f.n, run->opt->target, &sweeps, err);
+    if (kept < 0)
+        goto done;
+    if (wpd_flat_to_store(run, &f, idx, (size_t)kept)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
+        goto done;
+    }
+    rc = 0;
+done:
+    wpd_flat_free(&f);
+    free(idx);
+    return rc;
+}

@@ -1,0 +1,90 @@
+/* resample.h - Weighted Poisson-disk resampling of a cloud to n points: the
+ * one driver behind `wpd resample`, for clouds that fit the memory budget
+ * and clouds that do not.
+ *
+ * The data path (docs/architecture.md, docs/engine.md):
+ *   scan     one streaming pass (two for inputs without a declared box or
+ *            with a wrong one): the frame, finite points per file, occupied
+ *            voxels (-> the radius, both estimates), a coarse density grid;
+ *   plan     tiles of density-grid cells that fit the budget, their
+ *            neighbours and a colouring; a cloud that fits is one tile;
+ *   tile     a streaming pass puts every point into its tile and, within
+ *            the halo, into its neighbours: zstd spill files, or the one
+ *            tile kept in memory;
+ *   poisson  colour by colour, tiles of a colour in parallel (one tile: all
+ *            threads); counts summed over tiles drive the refinement; an
+ *            overshoot is pruned over all samples;
+ *   exact    the exact count over all samples;
+ *   smooth   colour by colour: each tile's samples, its neighbours' samples
+ *            as context, its input plus halo as the surface;
+ *   records  the samples' records from a last streaming pass;
+ *   merge    samples in global-index order, absolute coordinates.
+ * Every step is the same code whether the cloud is one tile in memory or
+ * many in the spill; the output does not depend on the number of threads.
+ */
+#ifndef WPD_RESAMPLE_H
+#define WPD_RESAMPLE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "common/error.h"
+#include "common/progress.h"
+#include "io/cloud.h"
+#include "ooc/spill.h"
+#include "wpd/params.h"
+
+typedef struct wpd_resample_options {
+    uint64_t target;          /* n (>= 1) */
+    size_t mem_bytes;         /* memory budget */
+    const char *tmpdir;       /* directory for the private spill directory */
+    int min_tiles;            /* >= 2: tiles (the spill) with at least this many */
+    wpd_params params;        /* the method's parameters; threads */
+    wpd_progress *progress;   /* phase progress, or NULL */
+} wpd_resample_options;
+
+/* Wall time of each phase, seconds. */
+typedef struct wpd_resample_timings {
+    double bounds, scan, plan, tile, poisson, exact, smooth, records, total;
+} wpd_resample_timings;
+
+/* What a run produced and what it did. */
+typedef struct wpd_resample_result {
+    size_t count;             /* samples (n, or every point when n >= input) */
+    uint64_t *gid;            /* [count] ascending global indices */
+    double *xyz;              /* [3 count] absolute coordinates */
+    uint8_t *records;         /* [count * record_size] the samples' input records */
+    uint8_t *edge;            /* [count] sharp-feature label, or NULL without --sharp */
+    uint32_t record_size;
+    int moved;                /* 1: coordinates were smoothed */
+    uint64_t input_points;    /* finite input points */
+    int nfiles;
+    uint64_t *file_count;     /* [nfiles] finite points per input file */
+    double radius_estimate, radius;
+    size_t first_pass_count, poisson_count;
+    int passes, prune_passes; /* Poisson passes over the input; prunes of an overshoot */
+    size_t open_cells, pulled_to_surface;
+    uint64_t sharp_points;    /* input points labelled sharp */
+    int in_memory;            /* 1: one tile held in memory, no spill */
+    int tiles, colours;
+    uint64_t largest_tile;
+    double *tile_box;         /* [6 tiles]: min x y z, max x y z, absolute, outer
+                                 faces at the data's bounds */
+    wpd_spill_stats spill;    /* zeros in memory */
+    wpd_resample_timings time;
+} wpd_resample_result;
+
+/* Whether a run with these options holds the cloud in memory (one tile, all
+ * threads on it, no spill) rather than tiling it through the spill. */
+int wpd_resample_in_memory(const wpd_cloud *cloud, const wpd_resample_options *opt);
+
+/* Resamples cloud to opt->target points. Returns 0 (res filled; free with
+ * wpd_resample_result_free), or -1 with err set: WPD_E_MEMORY when the
+ * budget is too small (before any work), WPD_E_IO, WPD_E_INPUT,
+ * WPD_E_USAGE. Spill files are removed on every path. */
+int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
+                     wpd_resample_result *res, wpd_error *err);
+
+void wpd_resample_result_free(wpd_resample_result *res);
+
+#endif

@@ -1,0 +1,61 @@
+/* smooth_pass.c - weighted tangent smoothing, tile by tile: each tile's
+ * samples with its neighbours' samples within 3 r as context (at their
+ * current positions: already smoothed for earlier colours) and a grid over
+ * its input points and halo as the surface. Sharp-feature samples stay
+ * where they are. */
+#include "resample/run.h"
+
+#include <stdlib.h>
+
+#include "core/grid.h"
+#include "core/knn.h"
+#include "wpd/smooth.h"
+
+static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
+{
+    (void)arg;
+    const wpd_params *p = run->p;
+    wpd_tile_samples *s = &run->store[t];
+    if (s->n == 0)
+        return 0;
+    double r = run->res->radius;
+    wpd_tile_data d;
+    if (wpd_tiles_read(&run->tiles, t, &d, err))
+        return -1;
+    wpd_grid surface = {0};
+    double *ctx = NULL;
+    size_t nctx = 0;
+    int rc = -1;
+    if (p->keep_on_surface &&
+        wpd_grid_build_knn(&surface, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
+        goto done;
+    if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &nctx)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+        goto done;
+    }
+    wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, nctx,
+                           p->keep_on_surface ? &surface : NULL, run->surface_dk,
+                           (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations, r, threads,
+                           {p->resolution[0], p->resolution[1], p->resolution[2]}};
+    wpd_smooth_stats st;
+    if (wpd_smooth(&in, &st, err))
+        goto done;
+#pragma omp atomic
+    run->res->open_cells += st.open_cells;
+#pragma omp atomic
+    run->res->pulled_to_surface += st.pulled_to_surface;
+    rc = 0;
+done:
+    wpd_grid_free(&surface);
+    free(ctx);
+    wpd_tiles_release(&run->tiles, &d);
+    return rc;
+}
+
+int wpd_smooth_phase(wpd_run *run, wpd_error *err)
+{
+    if (!run->p->smooth || run->p->iterations <= 0)
+        return 0;
+    run->res->moved = 1;
+    return wpd_run_each_tile(run, "smooth", smooth_tile, NULL, err);
+}
