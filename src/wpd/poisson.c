@@ -24,7 +24,12 @@
 /* Per-slot state byte: band << 2 | status, so "undecided and in band b" is
  * one byte comparison (points of smaller priority that are still undecided
  * can only be in the current band). */
-enum { UNDECIDED = 0, REMOVED = 1, ACCEPTED = 2, STATUS_MASK = 3 };
+enum { UNDECIDED = 0, REMOVED = 1, ACCEPTED = 2, UNKNOWN = 3, STATUS_MASK = 3 };
+
+/* Three-valued pass only (band << 2 uses bits 2-6): set on an undecided
+ * slot when an UNKNOWN slot of smaller priority lies within conflict
+ * distance, so it cannot become KEPT. */
+#define TAINT 0x80u
 
 typedef struct pass_state {
     const wpd_grid *g;
@@ -81,6 +86,18 @@ static void remove_around(const pass_state *ps, const double p[3], double rp)
         }
 }
 
+/* Doubles a scratch array; returns 0, or -1 (the array unchanged) if out of
+ * memory. */
+static int grow(uint32_t **buf, size_t *cap)
+{
+    uint32_t *grown = realloc(*buf, 2 * *cap * sizeof *grown);
+    if (!grown)
+        return -1;
+    *buf = grown;
+    *cap *= 2;
+    return 0;
+}
+
 /* Tries to accept slot t: one scan of its neighbourhood collects the
  * undecided slots in conflict with it; if one of them has a smaller
  * priority (it can only be in t's band), that one must be decided first and
@@ -108,14 +125,8 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
                         continue;
                     if (st == waiting && ps->prio[s] < pt)
                         return s;
-                    if (found == ps->hit_cap) {
-                        size_t cap = 2 * ps->hit_cap;
-                        uint32_t *grown = realloc(ps->hits, cap * sizeof *grown);
-                        if (!grown)
-                            return UINT32_MAX - 1;
-                        ps->hits = grown;
-                        ps->hit_cap = cap;
-                    }
+                    if (found == ps->hit_cap && grow(&ps->hits, &ps->hit_cap) < 0)
+                        return UINT32_MAX - 1;
                     ps->hits[found++] = s;
                 }
             }
@@ -145,14 +156,130 @@ static int resolve(pass_state *ps, uint32_t s)
         }
         if (blocker == UINT32_MAX - 1)
             return -1;
-        if (top == ps->stack_cap) {
-            size_t cap = 2 * ps->stack_cap;
-            uint32_t *grown = realloc(ps->stack, cap * sizeof *grown);
-            if (!grown)
-                return -1;
-            ps->stack = grown;
-            ps->stack_cap = cap;
+        if (top == ps->stack_cap && grow(&ps->stack, &ps->stack_cap) < 0)
+            return -1;
+        ps->stack[top++] = blocker;
+    }
+    return 0;
+}
+
+/* ---- Three-valued pass ("certain or unknown") ----------------------------
+ *
+ * Why the decisions are certain. Let REF be the one-block pass over the
+ * whole cloud with the true labels; its kept set K is independent (a kept
+ * point removes every later point within conflict distance) and a point is
+ * in K iff no point of K of smaller priority lies within conflict distance.
+ * Assume (a)-(c) of poisson.h and take the candidates in priority order;
+ * suppose every candidate of smaller priority than c that is KEPT is in K
+ * and every one that is REMOVED is not (nothing to assume for the first).
+ * Write R(x) for the largest radius x may have (r if blind, else its label)
+ * and m(x) for the smallest (r/2 if blind, else its label); the true radius
+ * lies in [m(x), R(x)], and every conflict distance is at most r.
+ *  - c REMOVED by a fixed point f: f is in K (a) and |c f| < (r_f + m(c))/2
+ *    <= the true conflict distance, so c is not in K (K is independent).
+ *  - c REMOVED by a KEPT candidate k of smaller priority: k is in K (by
+ *    induction) and not blind, so its label is true (c), and |c k| <
+ *    (r_k + m(c))/2 <= the true distance: c is not in K.
+ *  - c KEPT: c is not blind, so its label is true (c). If c were not in K,
+ *    some p in K of smaller priority would lie within the true conflict
+ *    distance (<= r) of c, hence (b) be a fixed point or a candidate. A
+ *    fixed p would have removed c (its true label, (a)). A candidate p is
+ *    not REMOVED (induction, p in K); KEPT, it is not blind and would have
+ *    removed c; UNKNOWN, its radius is counted at R(p) >= its true one, so
+ *    it would have made c UNKNOWN. Each case contradicts c KEPT: c is in K.
+ * UNKNOWN claims nothing. The induction uses only candidates of smaller
+ * priority, so it holds whatever the block's points of larger priority.
+ *
+ * In the pass, KEPT and UNKNOWN are pushed forward as in the two-valued
+ * one: when slot t is decided it removes or taints the undecided slots of
+ * larger priority around it. For that, every undecided slot of smaller
+ * priority that could remove or taint t must be decided first: those lie
+ * within (R(s) + R(t)) / 2, the dependency distance try_decide scans.
+ *
+ * Per-slot kind, in place of the sharp flag: */
+enum { KIND_HALF = 1, KIND_BLIND = 2 };
+/* A slot's kind is nonzero exactly when its smallest radius m is r/2, so
+ * remove_around (the fixed points) reads it as the "half" flag; its largest
+ * radius R is r/2 only for kind == KIND_HALF. */
+
+/* As try_accept, for the three-valued pass (ps->half is the kind array):
+ * returns an undecided slot of smaller priority that t depends on, or
+ * decides t - UNKNOWN (tainting its neighbours of larger priority) if it is
+ * blind or tainted, else KEPT (removing them) - and returns UINT32_MAX.
+ * UINT32_MAX - 1: out of memory. */
+static uint32_t try_decide(pass_state *ps, uint32_t t)
+{
+    const wpd_grid *g = ps->g;
+    const uint8_t *kind = ps->half;
+    const double *p = g->xyz + 3 * (size_t)t;
+    uint64_t pt = ps->prio[t];
+    uint8_t waiting = (uint8_t)(ps->state[t] & ~TAINT); /* undecided, t's band */
+    double half_r = 0.5 * ps->r;
+    double rt = kind[t] == KIND_HALF ? half_r : ps->r; /* R(t) */
+    double dep_full = 0.5 * (rt + ps->r), dep_half = 0.5 * (rt + half_r);
+    double dep_full2 = dep_full * dep_full, dep_half2 = dep_half * dep_half;
+    size_t found = 0;
+    int64_t lo[3], hi[3];
+    if (wpd_grid_box(g, p, dep_full, lo, hi))
+        for (int64_t b = lo[1]; b <= hi[1]; b++)
+            for (int64_t a = lo[0]; a <= hi[0]; a++) {
+                uint32_t sb, se;
+                wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
+                for (uint32_t s = sb; s < se; s++) {
+                    uint8_t st = ps->state[s];
+                    if ((st & STATUS_MASK) != UNDECIDED || s == t ||
+                        dist2(g->xyz + 3 * (size_t)s, p) >=
+                            (kind[s] == KIND_HALF ? dep_half2 : dep_full2))
+                        continue;
+                    if ((uint8_t)(st & ~TAINT) == waiting && ps->prio[s] < pt)
+                        return s;
+                    if (found == ps->hit_cap && grow(&ps->hits, &ps->hit_cap) < 0)
+                        return UINT32_MAX - 1;
+                    ps->hits[found++] = s;
+                }
+            }
+    if ((ps->state[t] & TAINT) || (kind[t] & KIND_BLIND)) {
+        /* A hit s lies within (R(t) + R(s)) / 2; for a non-blind s, R(s) is
+         * its label, the distance the rule asks for. A blind s becomes
+         * UNKNOWN anyway unless removed, so tainting it changes nothing. */
+        ps->state[t] |= UNKNOWN;
+        for (size_t i = 0; i < found; i++)
+            ps->state[ps->hits[i]] |= TAINT;
+    } else {
+        /* t is not blind: rt is its label. A non-blind hit lies within the
+         * exact conflict distance; a blind one is removed only within
+         * (rt + r/2) / 2, whatever its label turns out to be. */
+        ps->state[t] |= ACCEPTED;
+        double rm = 0.5 * (rt + half_r), rm2 = rm * rm;
+        for (size_t i = 0; i < found; i++) {
+            uint32_t s = ps->hits[i];
+            if (!(kind[s] & KIND_BLIND) || dist2(g->xyz + 3 * (size_t)s, p) < rm2)
+                ps->state[s] |= REMOVED;
         }
+    }
+    return UINT32_MAX;
+}
+
+/* resolve() for the three-valued pass. */
+static int resolve_certain(pass_state *ps, uint32_t s)
+{
+    size_t top = 0;
+    ps->stack[top++] = s;
+    while (top > 0) {
+        uint32_t t = ps->stack[top - 1];
+        if ((ps->state[t] & STATUS_MASK) != UNDECIDED) {
+            top--;
+            continue;
+        }
+        uint32_t blocker = try_decide(ps, t);
+        if (blocker == UINT32_MAX) {
+            top--;
+            continue;
+        }
+        if (blocker == UINT32_MAX - 1)
+            return -1;
+        if (top == ps->stack_cap && grow(&ps->stack, &ps->stack_cap) < 0)
+            return -1;
         ps->stack[top++] = blocker;
     }
     return 0;
@@ -171,6 +298,9 @@ struct wpd_poisson {
     uint64_t *prio;        /* [n] per slot */
     uint8_t *band;         /* [n] per slot: band << 2 (the initial state byte) */
     uint8_t *half;         /* [n] per slot: sharp-feature point, or NULL */
+    uint8_t *kind;         /* [n] per slot: KIND_* (blind flags given), or NULL */
+    const uint8_t *blind;  /* per point, borrowed; NULL: a two-valued context */
+    const uint8_t *fixed_edge; /* per fixed point, borrowed, or NULL */
     uint32_t *order;       /* [n] slots by band, then slot */
     uint8_t *state;        /* [n] per slot, per pass */
     uint32_t *stack;
@@ -189,9 +319,9 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
     const wpd_grid *g = &ps->g;
     uint64_t seed = in->seed;
     const uint64_t *gid = in->gid;
-    const uint8_t *edge = in->edge;
+    const uint8_t *edge = in->edge, *blind = ps->blind;
     uint64_t *prio = ps->prio;
-    uint8_t *band = ps->band, *half = ps->half;
+    uint8_t *band = ps->band, *half = ps->half, *kind = ps->kind;
 #pragma omp parallel for num_threads(ps->threads) schedule(static)
     for (size_t s = 0; s < n; s++) {
         uint32_t id = g->id[s];
@@ -199,6 +329,8 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
         band[s] = (uint8_t)((prio[s] >> (64 - BAND_BITS)) << 2);
         if (half)
             half[s] = edge[id] != 0;
+        if (kind)
+            kind[s] = (uint8_t)((edge && edge[id] ? KIND_HALF : 0) | (blind[id] ? KIND_BLIND : 0));
     }
     size_t start[NBANDS + 1] = {0};
     for (size_t s = 0; s < n; s++)
@@ -210,7 +342,8 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
     return 0;
 }
 
-wpd_poisson *wpd_poisson_prepare(const wpd_poisson_input *in, wpd_error *err)
+static wpd_poisson *prepare(const wpd_poisson_input *in, const uint8_t *blind,
+                            const uint8_t *fixed_edge, wpd_error *err)
 {
     if (!(in->r > 0) || !isfinite(in->r)) {
         wpd_fail(err, WPD_E_USAGE, "poisson: radius %g is not positive", in->r);
@@ -221,18 +354,22 @@ wpd_poisson *wpd_poisson_prepare(const wpd_poisson_input *in, wpd_error *err)
     if (!ps)
         goto oom;
     ps->in = *in;
+    ps->blind = blind;
+    ps->fixed_edge = fixed_edge;
     ps->threads = in->threads > 0 ? in->threads : omp_get_max_threads();
     size_t m = n ? n : 1;
     ps->prio = malloc(m * sizeof *ps->prio);
     ps->band = malloc(m);
     ps->half = in->edge ? malloc(m) : NULL;
+    ps->kind = blind ? malloc(m) : NULL;
     ps->order = malloc(m * sizeof *ps->order);
     ps->state = malloc(m);
     ps->stack_cap = 1024;
     ps->stack = malloc(ps->stack_cap * sizeof *ps->stack);
     ps->hit_cap = 1024;
     ps->hits = malloc(ps->hit_cap * sizeof *ps->hits);
-    if (!ps->prio || !ps->band || (in->edge && !ps->half) || !ps->order || !ps->state ||
+    if (!ps->prio || !ps->band || (in->edge && !ps->half) || (blind && !ps->kind) ||
+        !ps->order || !ps->state ||
         !ps->stack || !ps->hits)
         goto oom;
     if (prepare_slots(ps, in->r, err) < 0) {
@@ -246,6 +383,16 @@ oom:
     return NULL;
 }
 
+wpd_poisson *wpd_poisson_prepare(const wpd_poisson_input *in, wpd_error *err)
+{
+    return prepare(in, NULL, NULL, err);
+}
+
+wpd_poisson *wpd_poisson_prepare_certain(const wpd_poisson_certain_input *in, wpd_error *err)
+{
+    return prepare(&in->base, in->blind, in->fixed_edge, err);
+}
+
 void wpd_poisson_release(wpd_poisson *ps)
 {
     if (!ps)
@@ -254,6 +401,7 @@ void wpd_poisson_release(wpd_poisson *ps)
     free(ps->prio);
     free(ps->band);
     free(ps->half);
+    free(ps->kind);
     free(ps->order);
     free(ps->state);
     free(ps->stack);
@@ -268,7 +416,10 @@ size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell)
     return ps->g.nruns;
 }
 
-long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
+/* One pass at radius r: two-valued (wpd_poisson_run) unless `certain`, in
+ * which case ps->kind is set and UNKNOWN slots go to unknown. */
+static long run_pass(wpd_poisson *ps, double r, int certain, uint32_t *out, uint32_t *unknown,
+                     size_t *nunknown, wpd_error *err)
 {
     size_t n = ps->in.ncand;
     if (!(r > 0) || !isfinite(r))
@@ -279,27 +430,54 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
     if (r > 1.6 * ps->g.cell || r < 0.6 * ps->g.cell)
         if (prepare_slots(ps, r, err) < 0)
             return -1;
-    pass_state st = {&ps->g, ps->half, ps->prio, ps->state, r, ps->stack, ps->stack_cap,
-                     ps->hits, ps->hit_cap};
+    pass_state st = {&ps->g, certain ? ps->kind : ps->half, ps->prio, ps->state, r, ps->stack,
+                     ps->stack_cap, ps->hits, ps->hit_cap};
     memcpy(ps->state, ps->band, n);
+    const uint8_t *fixed_edge = ps->fixed_edge; /* NULL but for prepare_certain */
     for (size_t f = 0; f < ps->in.nfixed; f++)
-        remove_around(&st, ps->in.fixed_xyz + 3 * f, r);
+        remove_around(&st, ps->in.fixed_xyz + 3 * f, fixed_edge && fixed_edge[f] ? 0.5 * r : r);
     int failed = 0;
-    for (size_t i = 0; i < n && !failed; i++)
-        if ((ps->state[ps->order[i]] & STATUS_MASK) == UNDECIDED)
-            failed = resolve(&st, ps->order[i]) < 0;
+    if (certain) {
+        for (size_t i = 0; i < n && !failed; i++)
+            if ((ps->state[ps->order[i]] & STATUS_MASK) == UNDECIDED)
+                failed = resolve_certain(&st, ps->order[i]) < 0;
+    } else {
+        for (size_t i = 0; i < n && !failed; i++)
+            if ((ps->state[ps->order[i]] & STATUS_MASK) == UNDECIDED)
+                failed = resolve(&st, ps->order[i]) < 0;
+    }
     ps->stack = st.stack;
     ps->stack_cap = st.stack_cap;
     ps->hits = st.hits;
     ps->hit_cap = st.hit_cap;
     if (failed)
         return wpd_fail(err, WPD_E_MEMORY, "poisson: out of memory for the conflict lists");
-    size_t kept = 0;
-    for (size_t s = 0; s < n; s++)
-        if ((ps->state[s] & STATUS_MASK) == ACCEPTED)
+    size_t kept = 0, unk = 0;
+    for (size_t s = 0; s < n; s++) {
+        uint8_t status = ps->state[s] & STATUS_MASK;
+        if (status == ACCEPTED)
             out[kept++] = ps->g.id[s];
+        else if (status == UNKNOWN)
+            unknown[unk++] = ps->g.id[s];
+    }
     qsort(out, kept, sizeof *out, cmp_u32);
+    if (certain) {
+        qsort(unknown, unk, sizeof *unknown, cmp_u32);
+        *nunknown = unk;
+    }
     return (long)kept;
+}
+
+long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err)
+{
+    return run_pass(ps, r, 0, out, NULL, NULL, err);
+}
+
+long wpd_poisson_run_certain(wpd_poisson *ps, double r, uint32_t *kept, uint32_t *unknown,
+                             size_t *nunknown, wpd_error *err)
+{
+    *nunknown = 0;
+    return run_pass(ps, r, ps->kind != NULL, kept, unknown, nunknown, err);
 }
 
 long wpd_poisson_pass(const wpd_poisson_input *in, uint32_t *out, wpd_error *err)
@@ -312,4 +490,18 @@ long wpd_poisson_pass(const wpd_poisson_input *in, uint32_t *out, wpd_error *err
     long kept = wpd_poisson_run(ps, in->r, out, err);
     wpd_poisson_release(ps);
     return kept;
+}
+
+long wpd_poisson_pass_certain(const wpd_poisson_certain_input *in, uint32_t *kept,
+                              uint32_t *unknown, size_t *nunknown, wpd_error *err)
+{
+    *nunknown = 0;
+    if (in->base.ncand == 0)
+        return 0;
+    wpd_poisson *ps = wpd_poisson_prepare_certain(in, err);
+    if (!ps)
+        return -1;
+    long got = wpd_poisson_run_certain(ps, in->base.r, kept, unknown, nunknown, err);
+    wpd_poisson_release(ps);
+    return got;
 }

@@ -11,7 +11,8 @@
  *
  * Radii: a normal point has radius r, a sharp-feature point r/2; two points
  * conflict when closer than the mean of their radii. Accepted samples of
- * neighbouring blocks (fixed) have radius r and are never removed.
+ * neighbouring blocks (fixed) have radius r and are never removed (the
+ * three-valued pass below can also give them their labels).
  */
 #ifndef WPD_POISSON_H
 #define WPD_POISSON_H
@@ -55,5 +56,68 @@ long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err);
 size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell);
 /* Frees a context; NULL is fine. */
 void wpd_poisson_release(wpd_poisson *ps);
+
+/* Input of the three-valued pass: a block's input plus what it does not
+ * know. (A separate struct rather than new fields of wpd_poisson_input:
+ * trailing fields would make every positional initialiser of that struct
+ * warn under -Wextra, -Wmissing-field-initializers.) */
+typedef struct wpd_poisson_certain_input {
+    wpd_poisson_input base;
+    const uint8_t *blind;      /* per point, indexed like base.xyz (read for
+                                  the candidates only): 1 = points the block
+                                  cannot see may lie within r of it, and its
+                                  edge label may be wrong; NULL: none */
+    const uint8_t *fixed_edge; /* per fixed point: 1 = sharp-feature sample,
+                                  radius r/2; NULL: every fixed point r */
+} wpd_poisson_certain_input;
+
+/* Three-valued pass, for a block that sees only part of the cloud: every
+ * candidate gets a decision that is either certain (KEPT or REMOVED) or
+ * UNKNOWN. Visiting the candidates in priority order, a candidate is
+ *   REMOVED if a fixed point, or a KEPT candidate of smaller priority, lies
+ *           within conflict distance - a blind candidate counted at radius
+ *           r/2, the smallest its unknown label allows;
+ *   UNKNOWN else, if it is blind, or an UNKNOWN candidate of smaller
+ *           priority lies within conflict distance - a blind one counted
+ *           at radius r, the largest its label allows;
+ *   KEPT    otherwise.
+ * UNKNOWN candidates remove nothing.
+ *
+ * Guarantee. Call "reference" the one-block pass over the whole cloud with
+ * the true labels (wpd_poisson_pass over every point, no fixed points). If
+ *   (a) every fixed point is kept by the reference, with its true label in
+ *       fixed_edge;
+ *   (b) every point the reference keeps that lies closer than r to a
+ *       non-blind candidate is a candidate or a fixed point (points of the
+ *       view that are neither must be ones the reference removes);
+ *   (c) every non-blind candidate has its true label in edge;
+ * then every KEPT candidate is kept by the reference and every REMOVED one
+ * is removed by it, blind candidates included (proof in poisson.c). In
+ * particular a tile whose view holds every point within r of each
+ * non-blind candidate decides those exactly as the one-tile run does, and
+ * re-running the tiles with UNKNOWN points, with the certain decisions of
+ * the other tiles as fixed (kept) or dropped (removed) points, settles at
+ * least the UNKNOWN point of smallest priority each time.
+ *
+ * Writes the KEPT candidates' point indices to kept and the UNKNOWN ones to
+ * unknown (each with room for ncand), both ascending, and their count to
+ * *nunknown; every other candidate is REMOVED. Returns how many were kept,
+ * or -1 with err set. With blind NULL it is wpd_poisson_pass on in->base
+ * (the same code, *nunknown = 0) but for the fixed labels. */
+long wpd_poisson_pass_certain(const wpd_poisson_certain_input *in, uint32_t *kept,
+                              uint32_t *unknown, size_t *nunknown, wpd_error *err);
+
+/* A context (as wpd_poisson_prepare; the arrays of *in are borrowed too)
+ * for several three-valued passes. wpd_poisson_run on it is the two-valued
+ * pass (blind flags ignored, fixed labels used); the other functions above
+ * apply as they are.
+ * Returns NULL with err set on failure. */
+wpd_poisson *wpd_poisson_prepare_certain(const wpd_poisson_certain_input *in, wpd_error *err);
+
+/* One three-valued pass at radius r (> 0) on a context, as
+ * wpd_poisson_pass_certain; on a context from wpd_poisson_prepare (no blind
+ * flags) it is wpd_poisson_run with *nunknown = 0. */
+long wpd_poisson_run_certain(wpd_poisson *ps, double r, uint32_t *kept, uint32_t *unknown,
+                             size_t *nunknown, wpd_error *err);
 
 #endif

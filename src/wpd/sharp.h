@@ -32,4 +32,28 @@
 void wpd_detect_sharp(const wpd_grid *surface, size_t n, int k, double threshold,
                       uint8_t *edge, int threads);
 
+/* Fewest points (the point itself included) wpd_detect_sharp_capped needs
+ * within its cap to call a point sharp. */
+#define WPD_SHARP_MIN_POINTS 5
+
+/* The same measure on a bounded neighbourhood, so that a block can label its
+ * points exactly: the neighbourhood of a point p is the k nearest points of
+ * the grid closer than cap (> 0; INFINITY: no cap) to p, p itself included; with fewer than
+ * WPD_SHARP_MIN_POINTS of them p is not sharp. Equal distances are ordered
+ * by coordinates (x, then y, then z), never by index, and the points enter
+ * the plane fit in that order, so p's label is a function of p and of the
+ * coordinates of the grid points closer than cap to it: a block whose grid
+ * holds every input point within cap of p labels p as the whole cloud does
+ * (in the same coordinate frame), whatever the order of its points or the
+ * threads. For a tile whose grid holds its own points and the halo points
+ * within H of its box, that is every own point when cap <= H, and every
+ * halo point closer than H - cap to the box.
+ *
+ * Labels the grid's source points begin..end-1 (end <= surface->n; own points
+ * first, halo points after them, as for wpd_detect_sharp): writes edge[i] =
+ * 1 (sharp) or 0 for i in [begin, end), edge indexed by source index; every
+ * grid point serves as a neighbour. k in 3..WPD_KNN_MAX (clamped). */
+void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, int k, double cap,
+                             double threshold, uint8_t *edge, int threads);
+
 #endif
