@@ -1,6 +1,25 @@
 /* poisson_pass.c - the Poisson-disk passes over the tiles with the paper's
  * count refinement (an overshoot is pruned over all samples, flat.c), and
- * the take-everything run for n >= the input. */
+ * the take-everything run for n >= the input.
+ *
+ * A pass over tiles gives exactly the one-block sample set, whatever the
+ * tiling. A tile sees its own points and the halo (points of neighbours
+ * within H of its box). Each point of that view is, for the tile:
+ *   fixed      kept for certain by its owner (or by this tile in an earlier
+ *              round): it removes every candidate within conflict distance;
+ *   dropped    removed for certain;
+ *   candidate  undecided: own points, halo points of neighbours not yet
+ *              processed, and points their owner could not decide.
+ * Candidates farther than H - r0 from the box are blind: unseen points may
+ * lie within r of them and their sharp label may be off. The three-valued
+ * pass (wpd_poisson_pass_certain) then decides each candidate KEPT or
+ * REMOVED only where that is the one-block decision, and UNKNOWN where the
+ * view cannot tell (a chain of decisions reaching past the halo). Round 1
+ * runs every tile colour by colour; each further round re-runs the tiles
+ * that still have UNKNOWN own points, with every other tile's decisions
+ * so far. Each round settles at least the UNKNOWN point of smallest
+ * priority (its view holds every point within r of it, all decided), so
+ * the rounds end; usually none is needed, rarely one. */
 #include "resample/run.h"
 
 #include <stdlib.h>
@@ -11,16 +30,61 @@
 #include "wpd/refine.h"
 #include "wpd/sharp.h"
 
+enum { MAX_ROUNDS = 10000 }; /* each round settles a point: only a bug gets here */
+
 /* What a pass shares between its tiles. */
 typedef struct pass_ctx {
     double r;
-    wpd_poisson *memo;        /* one in-memory tile: grid and priorities prepared
-                                 once for every pass */
-    uint8_t *memo_edge;       /* and its sharp labels (the context borrows them) */
+    int round;
+    wpd_tile_samples *unknown; /* [ntiles] own points a tile could not decide */
+    uint8_t *processed;        /* [ntiles] decided in this pass at least once */
+    wpd_poisson *memo;         /* one in-memory tile: grid and priorities prepared
+                                  once for every pass */
+    uint8_t *memo_edge;        /* and its sharp labels (the context borrows them) */
 } pass_ctx;
 
-/* Sharp-feature labels of every point of d (own and halo): the surface
- * variation of each point's k nearest points among d's. */
+/* One tile's view, classified. */
+typedef struct view {
+    wpd_tile_data d;
+    uint8_t *edge;             /* [d.n] sharp labels, or NULL */
+    uint32_t *cand;            /* candidates (view indices) */
+    size_t ncand;
+    uint8_t *blind;            /* [d.n] */
+    double *fixed;             /* [3 nfixed] */
+    uint8_t *fixed_edge;       /* [nfixed], or NULL */
+    size_t nfixed;
+    uint32_t *kept, *unknown;  /* outputs, room for ncand */
+} view;
+
+static void view_free(const wpd_run *run, view *v)
+{
+    wpd_tiles_release(&run->tiles, &v->d);
+    free(v->edge);
+    free(v->cand);
+    free(v->blind);
+    free(v->fixed);
+    free(v->fixed_edge);
+    free(v->kept);
+    free(v->unknown);
+}
+
+/* Index of gid among s's samples (ascending), or -1. */
+static long find(const wpd_tile_samples *s, uint64_t gid)
+{
+    size_t lo = 0, hi = s->n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (s->gid[mid] < gid)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < s->n && s->gid[lo] == gid ? (long)lo : -1;
+}
+
+/* Sharp labels of the points of d, from the input within r0 of each (the
+ * capped detector): exact for own points and halo points closer than
+ * H - r0 to the box, the ones that are not blind. */
 static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, uint8_t **edge,
                        wpd_error *err)
 {
@@ -31,144 +95,263 @@ static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, 
     if (wpd_grid_build_knn(&surface, d->xyz, NULL, d->n, run->p->k, run->surface_dk, threads,
                            err))
         return -1;
-    wpd_detect_sharp(&surface, d->n, run->p->k, run->p->sharp_threshold, *edge, threads);
+    wpd_detect_sharp_capped(&surface, 0, d->n, run->p->k, run->res->radius_estimate,
+                            run->p->sharp_threshold, *edge, threads);
     wpd_grid_free(&surface);
     return 0;
 }
 
-/* Candidates of tile t: its own points, and the halo points of neighbours
- * not yet processed (later colours). The greedy pass over both decides the
- * border points as the pass over the whole cloud would - a point is kept
- * iff no kept point of smaller priority lies within r, and the halo holds
- * the points that decide that. Halo points of finished neighbours are
- * settled: their samples are fixed, the rest are gone. */
-static size_t candidates(const wpd_run *run, int t, const wpd_tile_data *d, uint32_t *cand)
+/* Adds a fixed point (x, label) to v. */
+static void add_fixed(view *v, const double *x, int label)
 {
-    size_t ncand = 0;
-    int colour = run->plan.tiles[t].colour;
-    for (size_t i = 0; i < d->n; i++) {
-        int home = d->halo[i] ? run->plan.cell_tile[wpd_scan_cell_of(&run->scan, d->xyz + 3 * i)]
-                              : t;
-        if (home == t || run->plan.tiles[home].colour > colour)
-            cand[ncand++] = (uint32_t)i;
-    }
-    return ncand;
+    memcpy(v->fixed + 3 * v->nfixed, x, 3 * sizeof *v->fixed);
+    if (v->fixed_edge)
+        v->fixed_edge[v->nfixed] = (uint8_t)label;
+    v->nfixed++;
 }
 
-/* Keeps the own points among kept[0..m-1] of d as tile t's samples. */
-static int keep_own(wpd_run *run, int t, const wpd_tile_data *d, const uint8_t *edge,
-                    const uint32_t *kept, size_t m)
+/* Sorts point i of tile t's view into fixed, dropped or candidate. */
+static void classify(const wpd_run *run, const pass_ctx *pc, int t, view *v, size_t i)
 {
-    size_t own = 0;
-    for (size_t i = 0; i < m; i++)
-        own += !d->halo[kept[i]];
-    wpd_tile_samples *s = &run->store[t];
-    if (wpd_samples_alloc(s, own, edge != NULL))
+    const wpd_tile_data *d = &v->d;
+    const double *x = d->xyz + 3 * i;
+    int home = d->halo[i] ? run->plan.cell_tile[wpd_scan_cell_of(&run->scan, x)] : t;
+    int own = home == t;
+    if (!own && !pc->processed[home]) { /* a later colour of round 1: undecided */
+        v->cand[v->ncand++] = (uint32_t)i;
+        return;
+    }
+    if (own && pc->round == 0) {
+        v->cand[v->ncand++] = (uint32_t)i;
+        return;
+    }
+    const wpd_tile_samples *kept = &run->store[home];
+    long k = find(kept, d->gid[i]);
+    if (k >= 0)
+        add_fixed(v, x, kept->edge ? kept->edge[k] : 0);
+    else if (find(&pc->unknown[home], d->gid[i]) >= 0)
+        v->cand[v->ncand++] = (uint32_t)i;
+    /* else removed for certain: dropped */
+}
+
+/* Reads tile t and sorts its view for the three-valued pass. */
+static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads, view *v,
+                      wpd_error *err)
+{
+    memset(v, 0, sizeof *v);
+    if (wpd_tiles_read(&run->tiles, t, &v->d, err))
         return -1;
-    for (size_t i = 0; i < m; i++) {
-        uint32_t k = kept[i];
-        if (d->halo[k])
-            continue;
-        s->gid[s->n] = d->gid[k];
-        memcpy(s->xyz + 3 * s->n, d->xyz + 3 * (size_t)k, 3 * sizeof *s->xyz);
-        if (edge)
-            s->edge[s->n] = edge[k];
-        s->n++;
+    size_t m = v->d.n ? v->d.n : 1;
+    v->cand = malloc(m * sizeof *v->cand);
+    v->blind = malloc(m);
+    v->fixed = malloc(3 * m * sizeof *v->fixed);
+    v->fixed_edge = run->p->sharp ? malloc(m) : NULL;
+    v->kept = malloc(m * sizeof *v->kept);
+    v->unknown = malloc(m * sizeof *v->unknown);
+    if (!v->cand || !v->blind || !v->fixed || (run->p->sharp && !v->fixed_edge) || !v->kept ||
+        !v->unknown)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    if (run->p->sharp && label_sharp(run, &v->d, threads, &v->edge, err))
+        return -1;
+    const wpd_tile *tile = &run->plan.tiles[t];
+    double blind_from = run->halo - run->res->radius_estimate;
+    for (size_t i = 0; i < v->d.n; i++) {
+        v->blind[i] = v->d.halo[i] && wpd_tile_distance(tile, v->d.xyz + 3 * i) >= blind_from;
+        classify(run, pc, t, v, i);
     }
     return 0;
 }
 
-static long run_pass(wpd_run *run, int t, int threads, pass_ctx *pc, const wpd_tile_data *d,
-                     const uint8_t *edge, uint32_t *cand, uint32_t *kept, wpd_error *err)
+/* Tile t's new state: its certain kept own points join its samples, its
+ * unknown own points replace its unknown list. */
+static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept,
+                  size_t nunknown)
 {
-    const wpd_params *p = run->p;
-    if (run->plan.ntiles == 1) { /* no halo, no neighbour: every point a candidate */
-        if (!pc->memo) {
-            wpd_poisson_input in = {d->xyz, d->gid, edge, NULL, d->n, NULL, 0, pc->r, p->seed,
-                                    threads};
-            if (!(pc->memo = wpd_poisson_prepare(&in, err)))
-                return -1;
-        }
-        return wpd_poisson_run(pc->memo, pc->r, kept, err);
+    const wpd_tile_data *d = &v->d;
+    wpd_tile_samples *s = &run->store[t], *u = &pc->unknown[t], grown, left;
+    size_t own_kept = 0, own_unknown = 0;
+    for (size_t i = 0; i < nkept; i++)
+        own_kept += !d->halo[v->kept[i]];
+    for (size_t i = 0; i < nunknown; i++)
+        own_unknown += !d->halo[v->unknown[i]];
+    int with_edge = v->edge != NULL;
+    if (wpd_samples_alloc(&grown, s->n + own_kept, with_edge) ||
+        wpd_samples_alloc(&left, own_unknown, with_edge)) {
+        wpd_samples_free(&grown);
+        return -1;
     }
-    double *fixed = NULL;
-    size_t nfixed = 0;
-    if (wpd_run_neighbour_samples(run, t, run->halo + pc->r, &fixed, &nfixed))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    size_t ncand = candidates(run, t, d, cand);
-    wpd_poisson_input in = {d->xyz, d->gid, edge, cand, ncand, fixed, nfixed, pc->r, p->seed,
-                            threads};
-    long m = wpd_poisson_pass(&in, kept, err);
-    free(fixed);
-    return m;
+    /* Merge the old samples with the new ones, both ascending by gid. */
+    size_t a = 0, b = 0;
+    while (a < s->n || b < nkept) {
+        if (b < nkept && d->halo[v->kept[b]]) {
+            b++;
+            continue;
+        }
+        int from_old = b == nkept || (a < s->n && s->gid[a] < d->gid[v->kept[b]]);
+        size_t k = grown.n++;
+        grown.gid[k] = from_old ? s->gid[a] : d->gid[v->kept[b]];
+        memcpy(grown.xyz + 3 * k, from_old ? s->xyz + 3 * a : d->xyz + 3 * (size_t)v->kept[b],
+               3 * sizeof *grown.xyz);
+        if (with_edge)
+            grown.edge[k] = from_old ? s->edge[a] : v->edge[v->kept[b]];
+        from_old ? a++ : b++;
+    }
+    for (size_t i = 0; i < nunknown; i++) {
+        uint32_t j = v->unknown[i];
+        if (d->halo[j])
+            continue;
+        left.gid[left.n] = d->gid[j];
+        memcpy(left.xyz + 3 * left.n, d->xyz + 3 * (size_t)j, 3 * sizeof *left.xyz);
+        if (with_edge)
+            left.edge[left.n] = v->edge[j];
+        left.n++;
+    }
+    wpd_samples_free(s);
+    wpd_samples_free(u);
+    *s = grown;
+    *u = left;
+    pc->processed[t] = 1;
+    return 0;
 }
 
-/* One tile of a pass at radius pc->r. */
-static int poisson_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
+/* One tile of a round of the pass at radius pc->r. */
+static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
     pass_ctx *pc = arg;
-    wpd_tile_data d;
-    if (wpd_tiles_read(&run->tiles, t, &d, err))
-        return -1;
-    uint32_t *cand = malloc((d.n ? d.n : 1) * sizeof *cand);
-    uint32_t *kept = malloc((d.n ? d.n : 1) * sizeof *kept);
-    uint8_t *edge = NULL;
+    if (pc->round > 0 && pc->unknown[t].n == 0)
+        return 0;
+    view v;
     int rc = -1;
-    if (!cand || !kept) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    if (build_view(run, pc, t, threads, &v, err))
         goto done;
-    }
-    if (run->p->sharp && pc->memo_edge) {
-        edge = pc->memo_edge;
-    } else if (run->p->sharp) {
-        if (label_sharp(run, &d, threads, &edge, err))
-            goto done;
-        if (run->plan.ntiles == 1)
-            pc->memo_edge = edge;
-    }
-    long m = run_pass(run, t, threads, pc, &d, edge, cand, kept, err);
+    const wpd_params *p = run->p;
+    wpd_poisson_certain_input in = {
+        {v.d.xyz, v.d.gid, v.edge, v.cand, v.ncand, v.fixed, v.nfixed, pc->r, p->seed, threads},
+        v.blind, v.fixed_edge};
+    size_t nunknown = 0;
+    long m = wpd_poisson_pass_certain(&in, v.kept, v.unknown, &nunknown, err);
     if (m < 0)
         goto done;
-    if (keep_own(run, t, &d, edge, kept, (size_t)m)) {
+    if (settle(run, pc, t, &v, (size_t)m, nunknown)) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
         goto done;
     }
-    if (edge && run->res->passes == 0) {
+    if (v.edge && pc->round == 0 && run->res->passes == 0) {
         uint64_t sharp = 0;
-        for (size_t i = 0; i < d.n; i++)
-            sharp += edge[i] && !d.halo[i];
+        for (size_t i = 0; i < v.d.n; i++)
+            sharp += v.edge[i] && !v.d.halo[i];
 #pragma omp atomic
         run->res->sharp_points += sharp;
     }
     rc = 0;
 done:
-    free(cand);
+    view_free(run, &v);
+    return rc;
+}
+
+/* The one tile of an in-memory run: no halo, nothing unknown; the grid and
+ * priorities are prepared once for every pass of the refinement. */
+static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
+{
+    const wpd_params *p = run->p;
+    wpd_tile_data d;
+    if (wpd_tiles_read(&run->tiles, 0, &d, err))
+        return -1;
+    uint32_t *kept = malloc((d.n ? d.n : 1) * sizeof *kept);
+    int rc = -1;
+    if (!kept) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu points", d.n);
+        goto done;
+    }
+    if (p->sharp && !pc->memo_edge) {
+        if (label_sharp(run, &d, run->threads, &pc->memo_edge, err))
+            goto done;
+        for (size_t i = 0; i < d.n; i++)
+            run->res->sharp_points += pc->memo_edge[i];
+    }
+    if (!pc->memo) {
+        wpd_poisson_input in = {d.xyz, d.gid, pc->memo_edge, NULL, d.n, NULL, 0, pc->r, p->seed,
+                                run->threads};
+        if (!(pc->memo = wpd_poisson_prepare(&in, err)))
+            goto done;
+    }
+    long m = wpd_poisson_run(pc->memo, pc->r, kept, err);
+    if (m < 0)
+        goto done;
+    view v = {.d = d, .edge = pc->memo_edge, .kept = kept};
+    if (settle(run, pc, 0, &v, (size_t)m, 0)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for %ld samples", m);
+        goto done;
+    }
+    rc = 0;
+done:
     free(kept);
-    if (edge != pc->memo_edge)
-        free(edge);
     wpd_tiles_release(&run->tiles, &d);
     return rc;
 }
 
+static size_t unknown_count(const wpd_run *run, const pass_ctx *pc)
+{
+    size_t n = 0;
+    for (int t = 0; t < run->plan.ntiles; t++)
+        n += pc->unknown[t].n;
+    return n;
+}
+
 static int full_pass(wpd_run *run, pass_ctx *pc, size_t *count, wpd_error *err)
 {
+    int ntiles = run->plan.ntiles;
     wpd_run_store_clear(run);
-    if (wpd_run_each_tile(run, "poisson", poisson_tile, pc, err))
-        return -1;
+    for (int t = 0; t < ntiles; t++)
+        wpd_samples_free(&pc->unknown[t]);
+    memset(pc->processed, 0, (size_t)run->plan.ntiles);
+    if (ntiles == 1) {
+        pc->round = 0;
+        if (memory_tile(run, pc, err))
+            return -1;
+    } else {
+        for (pc->round = 0; pc->round == 0 || unknown_count(run, pc) > 0; pc->round++) {
+            if (pc->round == MAX_ROUNDS)
+                return wpd_fail(err, WPD_E_USAGE, "poisson: %zu points still undecided after "
+                                "%d rounds (a bug)", unknown_count(run, pc), MAX_ROUNDS);
+            if (wpd_run_each_tile(run, pc->round ? NULL : "poisson", certain_tile, pc, err))
+                return -1;
+        }
+        run->res->resolution_rounds += pc->round - 1;
+    }
     *count = wpd_run_store_count(run);
     run->res->passes++;
     return 0;
 }
 
+static void pass_ctx_free(const wpd_run *run, pass_ctx *pc)
+{
+    for (int t = 0; pc->unknown && t < run->plan.ntiles; t++)
+        wpd_samples_free(&pc->unknown[t]);
+    free(pc->unknown);
+    free(pc->processed);
+    wpd_poisson_release(pc->memo);
+    free(pc->memo_edge);
+    memset(pc, 0, sizeof *pc);
+}
+
 /* Full passes with the paper's refinement until the count reaches
  * [n, 1.05 n], or overshoots: the overshoot is then pruned over all
- * samples (wpd_prune_phase). */
+ * samples (wpd_prune_phase). Full passes never run at a radius above the
+ * estimate (an overshoot is pruned, an undershoot shrinks r), so the halo
+ * of 2.5 r0 always holds the r-ball of every own point. */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err)
 {
     size_t n = run->opt->target, count = 0;
     wpd_refine st;
     wpd_refine_init(&st, n, run->res->radius_estimate, run->p->max_passes);
     pass_ctx pc = {0};
+    pc.unknown = calloc((size_t)run->plan.ntiles, sizeof *pc.unknown);
+    pc.processed = calloc((size_t)run->plan.ntiles, 1);
+    if (!pc.unknown || !pc.processed) {
+        pass_ctx_free(run, &pc);
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    }
     int rc = -1;
     for (;;) {
         pc.r = st.r;
@@ -183,14 +366,13 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
             break;
         }
         if (count > n) {
-            wpd_poisson_release(pc.memo); /* the pruning's peak is next */
-            pc.memo = NULL;
-            rc = wpd_prune_phase(run, pc.r, err);
+            double r = pc.r;
+            pass_ctx_free(run, &pc); /* the pruning's peak is next */
+            rc = wpd_prune_phase(run, r, err);
             break;
         }
     }
-    wpd_poisson_release(pc.memo);
-    free(pc.memo_edge);
+    pass_ctx_free(run, &pc);
     run->res->poisson_count = wpd_run_store_count(run);
     return rc;
 }
@@ -202,15 +384,17 @@ static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error 
     wpd_tile_data d;
     if (wpd_tiles_read(&run->tiles, t, &d, err))
         return -1;
-    uint32_t *own = malloc((d.n ? d.n : 1) * sizeof *own);
-    size_t m = 0;
-    for (size_t i = 0; own && i < d.n; i++)
-        if (!d.halo[i])
-            own[m++] = (uint32_t)i;
-    int rc = own && keep_own(run, t, &d, NULL, own, m) == 0
-                 ? 0
-                 : wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    free(own);
+    wpd_tile_samples *s = &run->store[t];
+    int rc = 0;
+    if (wpd_samples_alloc(s, d.n, 0))
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    for (size_t i = 0; rc == 0 && i < d.n; i++) {
+        if (d.halo[i])
+            continue;
+        s->gid[s->n] = d.gid[i];
+        memcpy(s->xyz + 3 * s->n, d.xyz + 3 * i, 3 * sizeof *s->xyz);
+        s->n++;
+    }
     wpd_tiles_release(&run->tiles, &d);
     return rc;
 }

@@ -63,6 +63,8 @@ typedef struct wpd_resample_result {
     double radius_estimate, radius;
     size_t first_pass_count, poisson_count;
     int passes, prune_passes; /* Poisson passes over the input; prunes of an overshoot */
+    int resolution_rounds;    /* tile rounds re-run for points a tile's view could not
+                                 decide (a chain of decisions past the halo) */
     size_t open_cells, pulled_to_surface;
     uint64_t sharp_points;    /* input points labelled sharp */
     int in_memory;            /* 1: one tile held in memory, no spill */
