@@ -1,4 +1,5 @@
 #include "common/outfile.h"
+#include "common/fullio.h"
 #include "common/testhook.h"
 #include "common/tmpdir.h"
 
@@ -170,25 +171,12 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
 }
 
 /* Writes all len bytes at offset off, or at the current position when off
- * is negative; retries short writes and EINTR. */
+ * is negative. */
 static int write_all(wpd_outfile *f, const void *buf, size_t len, long long off, wpd_error *err)
 {
-    const char *p = buf;
-    while (len) {
-        ssize_t w = off < 0 ? write(f->fd, p, len) : pwrite(f->fd, p, len, (off_t)off);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            if (w == 0)
-                errno = ENOSPC;
-            return wpd_fail_errno(err, "%s: write failed", f->final_path);
-        }
-        p += w;
-        len -= (size_t)w;
-        if (off >= 0)
-            off += w;
-    }
-    return 0;
+    int rc = off < 0 ? wpd_write_full(f->fd, buf, len)
+                     : wpd_pwrite_full(f->fd, buf, len, (uint64_t)off);
+    return rc ? wpd_fail_errno(err, "%s: write failed", f->final_path) : 0;
 }
 
 int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *err)
