@@ -13,11 +13,42 @@ static const double exact_pow10[] = {
     1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 };
 
-/* Parses a decimal number exactly when it has at most 15 significant digits
- * and a decimal exponent of at most 22 in magnitude: the digits are an exact
- * integer and one multiplication or division by an exact power of ten rounds
- * correctly. Returns 1 with *out set, 0 when the token needs strtod (other
- * syntax such as nan/inf, or more precision). */
+/* Appends the digits at *s to *mant (counted in *ndigits). Returns how many
+ * were read, or -1 past 15 significant digits: then the mantissa may not
+ * be exact in a double and the fast path does not apply. */
+static int take_digits(const char **s, const char *end, uint64_t *mant, int *ndigits)
+{
+    int n = 0;
+    for (; *s < end && (unsigned)(**s - '0') < 10; ++*s, n++) {
+        if (*ndigits >= 15)
+            return -1;
+        *mant = *mant * 10 + (unsigned)(**s - '0');
+        ++*ndigits;
+    }
+    return n;
+}
+
+/* Adds an exponent "(e|E)[+-]digits" at *s, if there is one, to *exp10.
+ * Returns 0 when an 'e' has no digits. Magnitudes are capped at 10^4:
+ * far beyond where the fast path gives up, without overflowing int. */
+static int take_exponent(const char **s, const char *end, int *exp10)
+{
+    if (*s == end || (**s != 'e' && **s != 'E'))
+        return 1;
+    ++*s;
+    int eneg = 0, e = 0, edigits = 0;
+    if (*s < end && (**s == '-' || **s == '+'))
+        eneg = *(*s)++ == '-';
+    for (; *s < end && (unsigned)(**s - '0') < 10; ++*s, edigits++)
+        if (e < 10000)
+            e = e * 10 + (**s - '0');
+    *exp10 += eneg ? -e : e;
+    return edigits > 0;
+}
+
+/* At most 15 significant digits and |exponent| <= 22: the digits are an
+ * exact integer and one multiplication or division by an exact power of
+ * ten rounds correctly, so no strtod is needed for typical scan data. */
 int wpd_decimal_exact(const char *p, size_t len, double *out)
 {
     const char *s = p, *end = p + len;
@@ -26,52 +57,25 @@ int wpd_decimal_exact(const char *p, size_t len, double *out)
         neg = *s++ == '-';
     uint64_t mant = 0;
     int ndigits = 0, exp10 = 0, any = 0;
-    while (s < end && *s == '0') {
+    while (s < end && *s == '0') { /* leading zeros are not significant */
         s++;
         any = 1;
     }
-    while (s < end && (unsigned)(*s - '0') < 10) {
-        if (ndigits >= 15)
-            return 0;
-        mant = mant * 10 + (unsigned)(*s++ - '0');
-        ndigits++;
-        any = 1;
-    }
+    int n = take_digits(&s, end, &mant, &ndigits);
+    if (n < 0)
+        return 0;
+    any |= n > 0;
     if (s < end && *s == '.') {
         s++;
-        if (!ndigits)
-            while (s < end && *s == '0') {
-                s++;
-                exp10--;
+        if (!ndigits) /* 0.000ddd: the zeros only move the point */
+            for (; s < end && *s == '0'; s++, exp10--)
                 any = 1;
-            }
-        while (s < end && (unsigned)(*s - '0') < 10) {
-            if (ndigits >= 15)
-                return 0;
-            mant = mant * 10 + (unsigned)(*s++ - '0');
-            ndigits++;
-            exp10--;
-            any = 1;
-        }
-    }
-    if (!any)
-        return 0;
-    if (s < end && (*s == 'e' || *s == 'E')) {
-        s++;
-        int eneg = 0, e = 0, edigits = 0;
-        if (s < end && (*s == '-' || *s == '+'))
-            eneg = *s++ == '-';
-        while (s < end && (unsigned)(*s - '0') < 10) {
-            if (e < 10000)
-                e = e * 10 + (*s - '0');
-            s++;
-            edigits++;
-        }
-        if (!edigits)
+        if ((n = take_digits(&s, end, &mant, &ndigits)) < 0)
             return 0;
-        exp10 += eneg ? -e : e;
+        exp10 -= n;
+        any |= n > 0;
     }
-    if (s != end)
+    if (!any || !take_exponent(&s, end, &exp10) || s != end)
         return 0;
     double v;
     if (mant == 0)

@@ -97,6 +97,25 @@ short_file:
                     e->name);
 }
 
+/* Ascii: skips the items of a list property whose count token is tok (the
+ * count is checked before any item is read, so tok is still valid when it
+ * is bad). Returns 1; 0 if tok is not a list count; -2 if the file ends
+ * inside the list; -1 with err set. */
+static int skip_ascii_list(ply_stream *st, const char *tok, size_t len, const char *path,
+                           wpd_error *err)
+{
+    uint64_t n;
+    int neg;
+    if (wpd_decimal_integer(tok, len, &neg, &n) != 1 || (neg && n))
+        return 0;
+    for (uint64_t j = 0; j < n; j++) {
+        int rc = ply_stream_token(st, &tok, &len, path, err);
+        if (rc <= 0)
+            return rc < 0 ? -1 : -2;
+    }
+    return 1;
+}
+
 /* Ascii: skips count items of an element (tokens; lists by their count). */
 static int skip_ascii_element(wpd_reader *r, ply_reader *pr, const ply_elem *e, wpd_error *err)
 {
@@ -114,20 +133,16 @@ static int skip_ascii_element(wpd_reader *r, ply_reader *pr, const ply_elem *e, 
                 goto short_file;
             if (!p->is_list)
                 continue;
-            uint64_t n;
-            int neg;
-            if (wpd_decimal_integer(tok, len, &neg, &n) != 1 || (neg && n))
+            rc = skip_ascii_list(&pr->st, tok, len, r->hdr.path, err);
+            if (rc == -1)
+                return -1;
+            if (rc == 0)
                 return wpd_fail(err, WPD_E_INPUT,
                                 "%s: PLY element '%s' item %llu: bad list count '%.*s'",
                                 r->hdr.path, e->name, (unsigned long long)item,
                                 (int)(len > 40 ? 40 : len), tok);
-            for (uint64_t j = 0; j < n; j++) {
-                rc = ply_stream_token(&pr->st, &tok, &len, r->hdr.path, err);
-                if (rc < 0)
-                    return -1;
-                if (rc == 0)
-                    goto short_file;
-            }
+            if (rc == -2)
+                goto short_file;
         }
         continue;
     short_file:
@@ -332,17 +347,13 @@ static int read_ascii_items(wpd_reader *r, ply_reader *pr, uint8_t *rec, size_t 
             if (rc == 0)
                 return fail_truncated(r, pr->next + i, err);
             if (p->is_list) {
-                uint64_t cnt;
-                int neg;
-                if (wpd_decimal_integer(tok, len, &neg, &cnt) != 1 || (neg && cnt))
+                rc = skip_ascii_list(&pr->st, tok, len, r->hdr.path, err);
+                if (rc == -1)
+                    return -1;
+                if (rc == 0)
                     goto bad_value;
-                for (uint64_t j = 0; j < cnt; j++) {
-                    rc = ply_stream_token(&pr->st, &tok, &len, r->hdr.path, err);
-                    if (rc < 0)
-                        return -1;
-                    if (rc == 0)
-                        return fail_truncated(r, pr->next + i, err);
-                }
+                if (rc == -2)
+                    return fail_truncated(r, pr->next + i, err);
                 continue;
             }
             rc = wpd_decimal_field(tok, len, p->type, pr->c_locale, out + p->offset);
