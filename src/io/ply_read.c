@@ -116,6 +116,18 @@ static int skip_ascii_list(ply_stream *st, const char *tok, size_t len, const ch
     return 1;
 }
 
+/* Ascii: the next token, for property p of the current item; a list's
+ * items are skipped (*tok is then its count, valid only when it is bad).
+ * Returns 1; 0 for a bad list count; -2 at end of file; -1 with err set. */
+static int next_ascii_value(ply_reader *pr, const ply_prop *p, const char **tok, size_t *len,
+                            const char *path, wpd_error *err)
+{
+    int rc = ply_stream_token(&pr->st, tok, len, path, err);
+    if (rc <= 0)
+        return rc < 0 ? -1 : -2;
+    return p->is_list ? skip_ascii_list(&pr->st, *tok, *len, path, err) : 1;
+}
+
 /* Ascii: skips count items of an element (tokens; lists by their count). */
 static int skip_ascii_element(wpd_reader *r, ply_reader *pr, const ply_elem *e, wpd_error *err)
 {
@@ -123,26 +135,19 @@ static int skip_ascii_element(wpd_reader *r, ply_reader *pr, const ply_elem *e, 
         return 0;
     for (uint64_t item = 0; item < e->count; item++) {
         for (uint32_t k = 0; k < e->nprops; k++) {
-            const ply_prop *p = &pr->props[e->first_prop + k];
             const char *tok;
             size_t len;
-            int rc = ply_stream_token(&pr->st, &tok, &len, r->hdr.path, err);
-            if (rc < 0)
-                return -1;
-            if (rc == 0)
-                goto short_file;
-            if (!p->is_list)
-                continue;
-            rc = skip_ascii_list(&pr->st, tok, len, r->hdr.path, err);
+            int rc = next_ascii_value(pr, &pr->props[e->first_prop + k], &tok, &len,
+                                      r->hdr.path, err);
             if (rc == -1)
                 return -1;
+            if (rc == -2)
+                goto short_file;
             if (rc == 0)
                 return wpd_fail(err, WPD_E_INPUT,
                                 "%s: PLY element '%s' item %llu: bad list count '%.*s'",
                                 r->hdr.path, e->name, (unsigned long long)item,
                                 (int)(len > 40 ? 40 : len), tok);
-            if (rc == -2)
-                goto short_file;
         }
         continue;
     short_file:
@@ -341,21 +346,15 @@ static int read_ascii_items(wpd_reader *r, ply_reader *pr, uint8_t *rec, size_t 
             const ply_prop *p = &props[k];
             const char *tok;
             size_t len;
-            int rc = ply_stream_token(&pr->st, &tok, &len, r->hdr.path, err);
-            if (rc < 0)
+            int rc = next_ascii_value(pr, p, &tok, &len, r->hdr.path, err);
+            if (rc == -1)
                 return -1;
-            if (rc == 0)
+            if (rc == -2)
                 return fail_truncated(r, pr->next + i, err);
-            if (p->is_list) {
-                rc = skip_ascii_list(&pr->st, tok, len, r->hdr.path, err);
-                if (rc == -1)
-                    return -1;
-                if (rc == 0)
-                    goto bad_value;
-                if (rc == -2)
-                    return fail_truncated(r, pr->next + i, err);
+            if (rc == 0)
+                goto bad_value;
+            if (p->is_list)
                 continue;
-            }
             rc = wpd_decimal_field(tok, len, p->type, pr->c_locale, out + p->offset);
             if (rc == 0)
                 continue;
