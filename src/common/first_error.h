@@ -12,10 +12,13 @@ typedef struct wpd_first_error {
     wpd_error err;
 } wpd_first_error;
 
-/* Keeps *err if no failure was kept yet. Thread-safe, lock-free. */
+/* Keeps *err if no failure was kept yet. Thread-safe, lock-free. err must
+ * not be NULL. */
 void wpd_first_error_keep(wpd_first_error *fe, const wpd_error *err);
+
 /* Whether any failure was reported (any thread, any time): for early exits. */
 int wpd_first_error_failed(const wpd_first_error *fe);
+
 /* After the threads joined: returns 0 when nothing failed, else copies the
  * first failure to *err (err may be NULL) and returns -1. */
 int wpd_first_error_take(const wpd_first_error *fe, wpd_error *err);

@@ -1,8 +1,8 @@
 #include "common/outfile.h"
+#include "common/fullio.h"
 #include "common/testhook.h"
 #include "common/tmpdir.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <libgen.h>
@@ -38,35 +38,12 @@ static void split_path(const char *path, char *dir, char *base, size_t size)
     snprintf(base, size, "%s", basename(b));
 }
 
-/* 1 if the process pid no longer exists. */
-static int pid_is_dead(long pid)
-{
-    return pid > 0 && kill((pid_t)pid, 0) != 0 && errno == ESRCH;
-}
-
 int wpd_outfile_sweep_stale(const char *path)
 {
     char dir[1024], base[1024], prefix[1100];
     split_path(path, dir, base, sizeof dir);
-    int plen = snprintf(prefix, sizeof prefix, ".%s.wpd-tmp-", base);
-    DIR *d = opendir(dir);
-    if (!d)
-        return 0;
-    int removed = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        char *end;
-        if (strncmp(e->d_name, prefix, (size_t)plen))
-            continue;
-        long pid = strtol(e->d_name + plen, &end, 10);
-        if (*end != '-' || strlen(end + 1) != 6 || !pid_is_dead(pid))
-            continue;
-        char victim[2200];
-        snprintf(victim, sizeof victim, "%s/%s", dir, e->d_name);
-        removed += unlink(victim) == 0;
-    }
-    closedir(d);
-    return removed;
+    snprintf(prefix, sizeof prefix, ".%s.wpd-tmp-", base);
+    return wpd_tmpdir_sweep_dead(dir, prefix, 0);
 }
 
 /* SIGINT, SIGTERM and SIGHUP blocked on this thread (old mask in *old):
@@ -170,25 +147,12 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
 }
 
 /* Writes all len bytes at offset off, or at the current position when off
- * is negative; retries short writes and EINTR. */
+ * is negative. */
 static int write_all(wpd_outfile *f, const void *buf, size_t len, long long off, wpd_error *err)
 {
-    const char *p = buf;
-    while (len) {
-        ssize_t w = off < 0 ? write(f->fd, p, len) : pwrite(f->fd, p, len, (off_t)off);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            if (w == 0)
-                errno = ENOSPC;
-            return wpd_fail_errno(err, "%s: write failed", f->final_path);
-        }
-        p += w;
-        len -= (size_t)w;
-        if (off >= 0)
-            off += w;
-    }
-    return 0;
+    int rc = off < 0 ? wpd_write_full(f->fd, buf, len)
+                     : wpd_pwrite_full(f->fd, buf, len, (uint64_t)off);
+    return rc ? wpd_fail_errno(err, "%s: write failed", f->final_path) : 0;
 }
 
 int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *err)

@@ -194,6 +194,16 @@ static int claim_slot(void)
     return slot;
 }
 
+/* Fills a claimed slot and makes it live. The state is stored last, with
+ * release order: the signal handler must never see half a path. */
+static void publish_slot(int slot, const char *path, size_t len, int kind)
+{
+    memcpy(registry[slot].path, path, len + 1);
+    registry[slot].owner = getpid();
+    registry[slot].kind = kind;
+    __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+}
+
 int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t outlen,
                       wpd_error *err)
 {
@@ -215,10 +225,7 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
     int ok = mkdtemp(path) != NULL;
     int saved = errno;
     if (ok) {
-        memcpy(registry[slot].path, path, (size_t)len + 1);
-        registry[slot].owner = getpid();
-        registry[slot].kind = KIND_DIR;
-        __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+        publish_slot(slot, path, (size_t)len, KIND_DIR);
     }
     pthread_sigmask(SIG_SETMASK, &old, NULL);
     if (!ok) {
@@ -245,14 +252,14 @@ void wpd_tmpdir_remove(const char *path)
     pthread_mutex_unlock(&registry_mu);
 }
 
-/* The pid in name if it is "<prefix>-<pid>-XXXXXX" (6 alphanumerics, as
- * mkdtemp makes them), else 0. */
+/* The pid in name if it is "<prefix><pid>-XXXXXX" (6 alphanumerics, as
+ * mkstemp and mkdtemp make them), else 0. */
 static long stale_pid(const char *name, const char *prefix)
 {
     size_t pl = strlen(prefix);
-    if (strncmp(name, prefix, pl) != 0 || name[pl] != '-')
+    if (strncmp(name, prefix, pl) != 0)
         return 0;
-    const char *p = name + pl + 1;
+    const char *p = name + pl;
     long pid = 0;
     int digits = 0;
     for (; *p >= '0' && *p <= '9' && digits < 10; p++, digits++)
@@ -267,9 +274,22 @@ static long stale_pid(const char *name, const char *prefix)
     return p[6] == '\0' ? pid : 0;
 }
 
-int wpd_tmpdir_sweep_stale(const char *base, const char *prefix)
+/* Removes one leftover; 1 if it is gone. A directory must be this user's:
+ * a shared base (/tmp) may hold another user's run of the same name. */
+static int remove_leftover(const char *path, int dirs)
 {
-    DIR *d = opendir(base);
+    if (!dirs)
+        return unlink(path) == 0;
+    struct stat st;
+    if (lstat(path, &st) || !S_ISDIR(st.st_mode) || st.st_uid != getuid())
+        return 0;
+    empty_and_remove(path);
+    return lstat(path, &st) != 0;
+}
+
+int wpd_tmpdir_sweep_dead(const char *dir, const char *prefix, int dirs)
+{
+    DIR *d = opendir(dir);
     if (!d)
         return 0;
     int removed = 0;
@@ -280,16 +300,20 @@ int wpd_tmpdir_sweep_stale(const char *base, const char *prefix)
             continue;
         if (kill((pid_t)pid, 0) == 0 || errno != ESRCH)
             continue; /* running, or someone else's */
-        char path[PATH_CAP];
-        struct stat st;
-        if (snprintf(path, sizeof path, "%s/%s", base, e->d_name) >= (int)sizeof path ||
-            lstat(path, &st) || !S_ISDIR(st.st_mode) || st.st_uid != getuid())
-            continue;
-        empty_and_remove(path);
-        removed += lstat(path, &st) != 0;
+        char path[2 * PATH_CAP + 256];
+        if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) < (int)sizeof path)
+            removed += remove_leftover(path, dirs);
     }
     closedir(d);
     return removed;
+}
+
+int wpd_tmpdir_sweep_stale(const char *base, const char *prefix)
+{
+    char dashed[PATH_CAP];
+    if (snprintf(dashed, sizeof dashed, "%s-", prefix) >= (int)sizeof dashed)
+        return 0;
+    return wpd_tmpdir_sweep_dead(base, dashed, 1);
 }
 
 int wpd_tmpdir_track_file(const char *path)
@@ -298,10 +322,7 @@ int wpd_tmpdir_track_file(const char *path)
     int slot = len < PATH_CAP ? claim_slot() : -1;
     if (slot < 0)
         return -1;
-    memcpy(registry[slot].path, path, len + 1);
-    registry[slot].owner = getpid();
-    registry[slot].kind = KIND_FILE;
-    __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+    publish_slot(slot, path, len, KIND_FILE);
     return 0;
 }
 
@@ -330,12 +351,9 @@ int wpd_tmpdir_track_outputs(const char *dir)
     int slot = len < PATH_CAP ? claim_slot() : -1;
     if (slot < 0)
         return -1;
-    memcpy(registry[slot].path, dir, len + 1);
     snprintf(registry[slot].marker, sizeof registry[slot].marker, ".wpd-tmp-%ld-",
              (long)getpid());
-    registry[slot].owner = getpid();
-    registry[slot].kind = KIND_OUTPUTS;
-    __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
+    publish_slot(slot, dir, len, KIND_OUTPUTS);
     return 0;
 }
 

@@ -45,8 +45,16 @@ int wpd_tmpdir_track_outputs(const char *dir);
 /* Stops tracking dir's temporary outputs (they were renamed or removed). */
 void wpd_tmpdir_untrack_outputs(const char *dir);
 
+/* Removes the entries of dir named "<prefix><pid>-XXXXXX" (XXXXXX: the 6
+ * letters and digits mkstemp and mkdtemp add) whose pid is no longer a
+ * running process: what a run killed outright (SIGKILL, power loss) left.
+ * dirs 1: directories of this user, with all they hold; dirs 0: plain
+ * files. Never touches the calling process's own. Returns how many were
+ * removed. */
+int wpd_tmpdir_sweep_dead(const char *dir, const char *prefix, int dirs);
+
 /* Removes "<base>/<prefix>-<pid>-*" directories whose pid is no longer a
- * running process (left by a killed run). Returns how many were removed. */
+ * running process (wpd_tmpdir_sweep_dead). Returns how many were removed. */
 int wpd_tmpdir_sweep_stale(const char *base, const char *prefix);
 
 #endif

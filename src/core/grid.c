@@ -6,15 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/bits.h"
 #include "core/sort.h"
-
-static int bits_for(int64_t count)
-{
-    int b = 0;
-    while (b < 63 && ((int64_t)1 << b) < count)
-        b++;
-    return b;
-}
 
 void wpd_point_bounds(const double *xyz, const uint32_t *subset, size_t n, double lo[3], double hi[3],
                 int threads)
@@ -53,7 +46,7 @@ static int plan_layout(wpd_grid *g, const double hi[3], double cell)
         for (int a = 0; a < 3; a++) {
             /* The same rounding as the keys, so the top point is inside. */
             g->dim[a] = wpd_grid_coord(g, a, hi[a]) + 1;
-            b[a] = bits_for(g->dim[a]);
+            b[a] = wpd_bits_for(g->dim[a]);
         }
         if (b[0] + b[1] + b[2] <= 63) {
             int c = 2; /* the axis with the fewest cells runs inside columns */

@@ -8,6 +8,7 @@
  */
 #include "io/format.h"
 #include "io/las_internal.h"
+#include "common/fullio.h"
 
 #include <errno.h>
 #include <math.h>
@@ -35,21 +36,13 @@ typedef struct las_reader {
 static int read_at(wpd_reader *r, void *buf, size_t len, uint64_t off, const char *what,
                    wpd_error *err)
 {
-    uint8_t *p = buf;
-    while (len) {
-        ssize_t n = pread(r->fd, p, len, (off_t)off);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n < 0)
-            return wpd_fail_errno(err, "%s: cannot read %s at byte %llu", r->hdr.path, what,
-                                  (unsigned long long)off);
-        if (n == 0)
-            return wpd_fail(err, WPD_E_INPUT, "%s: file ends at byte %llu inside the %s",
-                            r->hdr.path, (unsigned long long)off, what);
-        p += n;
-        off += (uint64_t)n;
-        len -= (size_t)n;
-    }
+    ssize_t n = wpd_pread_full(r->fd, buf, len, off);
+    if (n < 0)
+        return wpd_fail_errno(err, "%s: cannot read %s at byte %llu", r->hdr.path, what,
+                              (unsigned long long)off);
+    if ((size_t)n < len)
+        return wpd_fail(err, WPD_E_INPUT, "%s: file ends at byte %llu inside the %s",
+                        r->hdr.path, (unsigned long long)(off + (uint64_t)n), what);
     return 0;
 }
 

@@ -289,14 +289,9 @@ static size_t format_value(char *out, const wpd_dim *d, const uint8_t *rec)
     switch (d->type) {
     case WPD_F32: { float v; memcpy(&v, p, 4); return format_shortest(out, v, 6, 9, 1); }
     case WPD_F64: { double v; memcpy(&v, p, 8); return format_shortest(out, v, 15, 17, 0); }
-    case WPD_I8: return format_int(out, (int8_t)p[0], 0, 0);
-    case WPD_U8: return format_int(out, 0, 1, p[0]);
-    case WPD_I16: { int16_t v; memcpy(&v, p, 2); return format_int(out, v, 0, 0); }
-    case WPD_U16: { uint16_t v; memcpy(&v, p, 2); return format_int(out, 0, 1, v); }
-    case WPD_I32: { int32_t v; memcpy(&v, p, 4); return format_int(out, v, 0, 0); }
-    case WPD_U32: { uint32_t v; memcpy(&v, p, 4); return format_int(out, 0, 1, v); }
-    case WPD_I64: { int64_t v; memcpy(&v, p, 8); return format_int(out, v, 0, 0); }
-    default: { uint64_t v; memcpy(&v, p, 8); return format_int(out, 0, 1, v); }
+    case WPD_U8: case WPD_U16: case WPD_U32: case WPD_U64:
+        return format_int(out, 0, 1, (uint64_t)wpd_value_get_int(d->type, p));
+    default: return format_int(out, wpd_value_get_int(d->type, p), 0, 0);
     }
 }
 

@@ -1,5 +1,6 @@
 /* reader.c - format detection and dispatch to the per-format readers. */
 #include "io/format.h"
+#include "common/fullio.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -8,21 +9,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* Reads up to len bytes from the start of fd (without moving it for the
- * format parser, which starts at offset 0). Returns bytes read or -1. */
-static ssize_t peek_magic(int fd, char *buf, size_t len)
-{
-    ssize_t n;
-    do
-        n = pread(fd, buf, len, 0);
-    while (n < 0 && errno == EINTR);
-    return n;
-}
-
 static int detect_format(wpd_reader *r, wpd_error *err)
 {
     char magic[5] = {0};
-    ssize_t n = peek_magic(r->fd, magic, 4);
+    /* pread: the format parser starts at offset 0 and must find it there. */
+    ssize_t n = wpd_pread_full(r->fd, magic, 4, 0);
     if (n < 0)
         return wpd_fail_errno(err, "%s: cannot read", r->hdr.path);
     if (n == 0)

@@ -52,29 +52,12 @@ int wpd_schema_find(const wpd_schema *s, const char *name)
     return -1;
 }
 
-/* Raw field as a 64-bit integer (integer types only). memcpy keeps unaligned
- * access legal; the records are little-endian and so is every supported host. */
-static int64_t field_int(wpd_type t, const uint8_t *p)
-{
-    switch (t) {
-    case WPD_I8: { int8_t v; memcpy(&v, p, 1); return v; }
-    case WPD_U8: return *p;
-    case WPD_I16: { int16_t v; memcpy(&v, p, 2); return v; }
-    case WPD_U16: { uint16_t v; memcpy(&v, p, 2); return v; }
-    case WPD_I32: { int32_t v; memcpy(&v, p, 4); return v; }
-    case WPD_U32: { uint32_t v; memcpy(&v, p, 4); return v; }
-    case WPD_I64: { int64_t v; memcpy(&v, p, 8); return v; }
-    case WPD_U64: { uint64_t v; memcpy(&v, p, 8); return (int64_t)v; }
-    default: return 0;
-    }
-}
-
 double wpd_dim_get(const wpd_dim *d, const uint8_t *record)
 {
     const uint8_t *p = record + d->offset;
     double v;
     if (d->bit_count) {
-        uint64_t raw = (uint64_t)field_int(d->type, p);
+        uint64_t raw = (uint64_t)wpd_value_get_int(d->type, p);
         v = (double)((raw >> d->bit_shift) & ((1ull << d->bit_count) - 1));
     } else {
         v = wpd_value_get(d->type, p);
@@ -121,7 +104,7 @@ void wpd_dim_set(const wpd_dim *d, uint8_t *record, double v)
     int64_t iv = (int64_t)v;
     if (d->bit_count) {
         uint64_t mask = ((1ull << d->bit_count) - 1);
-        uint64_t raw = (uint64_t)field_int(d->type, p);
+        uint64_t raw = (uint64_t)wpd_value_get_int(d->type, p);
         uint64_t bits = (uint64_t)iv > mask ? mask : (uint64_t)iv;
         raw = (raw & ~(mask << d->bit_shift)) | (bits << d->bit_shift);
         iv = (int64_t)raw;

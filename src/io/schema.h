@@ -119,9 +119,15 @@ int wpd_schema_add(wpd_schema *s, const char *name, wpd_type type, uint32_t offs
 /* Index of the dimension called name, or -1. */
 int wpd_schema_find(const wpd_schema *s, const char *name);
 
-/* Raw little-endian value of type t at p as a double (no bit field, no
- * scale). Inline: it sits in the coordinate decode loops of the readers. */
-static inline double wpd_value_get(wpd_type t, const uint8_t *p)
+/* 1 for the integer types, 0 for float and double. */
+static inline int wpd_type_is_int(wpd_type t) { return t != WPD_F32 && t != WPD_F64; }
+
+/* Raw little-endian integer field of type t at p (integer types only; 0 for
+ * the float types), widened to 64 bits: a U64 above INT64_MAX comes back as
+ * its two's-complement bit pattern. The one decoder of integer fields by
+ * type; inline because it sits in the coordinate decode loops. memcpy keeps
+ * unaligned access legal. */
+static inline int64_t wpd_value_get_int(wpd_type t, const uint8_t *p)
 {
     switch (t) {
     case WPD_I8: return (int8_t)p[0];
@@ -130,10 +136,20 @@ static inline double wpd_value_get(wpd_type t, const uint8_t *p)
     case WPD_U16: { uint16_t v; __builtin_memcpy(&v, p, 2); return v; }
     case WPD_I32: { int32_t v; __builtin_memcpy(&v, p, 4); return v; }
     case WPD_U32: { uint32_t v; __builtin_memcpy(&v, p, 4); return v; }
-    case WPD_I64: { int64_t v; __builtin_memcpy(&v, p, 8); return (double)v; }
-    case WPD_U64: { uint64_t v; __builtin_memcpy(&v, p, 8); return (double)v; }
+    case WPD_I64: case WPD_U64: { int64_t v; __builtin_memcpy(&v, p, 8); return v; }
+    default: return 0;
+    }
+}
+
+/* Raw little-endian value of type t at p as a double (no bit field, no
+ * scale). Inline: it sits in the coordinate decode loops of the readers. */
+static inline double wpd_value_get(wpd_type t, const uint8_t *p)
+{
+    switch (t) {
+    case WPD_U64: return (double)(uint64_t)wpd_value_get_int(t, p);
     case WPD_F32: { float v; __builtin_memcpy(&v, p, 4); return v; }
-    default: { double v; __builtin_memcpy(&v, p, 8); return v; }
+    case WPD_F64: { double v; __builtin_memcpy(&v, p, 8); return v; }
+    default: return (double)wpd_value_get_int(t, p);
     }
 }
 

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/bits.h"
 #include "core/grid.h"
 #include "core/voxel_set.h"
 
@@ -17,14 +18,6 @@ static int64_t floor_index(double v)
         v = 4e18;
     int64_t i = (int64_t)v;
     return i - (v < (double)i);
-}
-
-static int bits_for(int64_t count)
-{
-    int b = 0;
-    while (b < 63 && ((int64_t)1 << b) < count)
-        b++;
-    return b;
 }
 
 /* Adds the voxels of points [begin, end) to set. */
@@ -62,7 +55,7 @@ static int count_scale(const double *xyz, size_t n, const double lo[3], const do
     int b[3];
     for (int a = 0; a < 3; a++) {
         base[a] = floor_index(lo[a] * inv);
-        b[a] = bits_for(floor_index(hi[a] * inv) - base[a] + 2);
+        b[a] = wpd_bits_for(floor_index(hi[a] * inv) - base[a] + 2);
     }
     *m = 0;
     if (n == 0 || b[0] + b[1] + b[2] > 63)
