@@ -86,18 +86,22 @@ typedef struct wpd_poisson_certain_input {
  * Guarantee. Call "reference" the one-block pass over the whole cloud with
  * the true labels (wpd_poisson_pass over every point, no fixed points). If
  *   (a) every fixed point is kept by the reference, with its true label in
- *       fixed_edge;
- *   (b) every point the reference keeps that lies closer than r to a
- *       non-blind candidate is a candidate or a fixed point (points of the
- *       view that are neither must be ones the reference removes);
+ *       fixed_edge (fixed_edge NULL: they must all be normal points);
+ *   (b) every point the reference keeps that lies closer than r (the run's
+ *       radius) to a non-blind candidate is a candidate or a fixed point;
  *   (c) every non-blind candidate has its true label in edge;
  * then every KEPT candidate is kept by the reference and every REMOVED one
- * is removed by it, blind candidates included (proof in poisson.c). In
- * particular a tile whose view holds every point within r of each
- * non-blind candidate decides those exactly as the one-tile run does, and
- * re-running the tiles with UNKNOWN points, with the certain decisions of
- * the other tiles as fixed (kept) or dropped (removed) points, settles at
- * least the UNKNOWN point of smallest priority each time.
+ * is removed by it, blind candidates included (proof in poisson.c).
+ * For a tile: with candidates = its own points and the undecided halo
+ * points within H of its box, blind = those at H - r or more from the box,
+ * fixed = the kept points of finished tiles within H + r, (b) holds; with
+ * labels from wpd_detect_sharp_capped (cap <= r) over own + halo points,
+ * (c) holds. Re-running every tile that has UNKNOWN own points, with the
+ * others' certain decisions as fixed (KEPT) or dropped (REMOVED) points and
+ * their UNKNOWN ones as candidates, settles at least the UNKNOWN point of
+ * smallest priority of the whole cloud in each round (its tile sees only
+ * certain points of smaller priority, and own points are not blind when
+ * H > r), so the tiles reach the reference in finitely many rounds.
  *
  * Writes the KEPT candidates' point indices to kept and the UNKNOWN ones to
  * unknown (each with room for ncand), both ascending, and their count to

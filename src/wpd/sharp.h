@@ -38,8 +38,8 @@ void wpd_detect_sharp(const wpd_grid *surface, size_t n, int k, double threshold
 
 /* The same measure on a bounded neighbourhood, so that a block can label its
  * points exactly: the neighbourhood of a point p is the k nearest points of
- * the grid closer than cap (> 0; INFINITY: no cap) to p, p itself included; with fewer than
- * WPD_SHARP_MIN_POINTS of them p is not sharp. Equal distances are ordered
+ * the grid closer than cap (> 0; INFINITY: no cap) to p, p itself included;
+ * with fewer than WPD_SHARP_MIN_POINTS of them p is not sharp. Equal distances are ordered
  * by coordinates (x, then y, then z), never by index, and the points enter
  * the plane fit in that order, so p's label is a function of p and of the
  * coordinates of the grid points closer than cap to it: a block whose grid
