@@ -39,21 +39,28 @@ size_t wpd_run_store_count(const wpd_run *run)
     return total;
 }
 
-int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **out, size_t *n)
+int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **out,
+                              uint8_t **edge, size_t *n)
 {
     const wpd_tile *tile = &run->plan.tiles[t];
     size_t cap = 0;
-    for (int j = 0; j < tile->nadj; j++)
+    int labelled = 0;
+    for (int j = 0; j < tile->nadj; j++) {
         cap += run->store[tile->adj[j]].n;
+        labelled |= run->store[tile->adj[j]].edge != NULL;
+    }
     *out = malloc((cap ? cap : 1) * 3 * sizeof **out);
+    *edge = labelled ? calloc(cap ? cap : 1, 1) : NULL;
     *n = 0;
-    if (!*out)
+    if (!*out || (labelled && !*edge))
         return -1;
     for (int j = 0; j < tile->nadj; j++) {
         const wpd_tile_samples *s = &run->store[tile->adj[j]];
         for (size_t i = 0; i < s->n; i++)
             if (wpd_tile_distance(tile, s->xyz + 3 * i) < dist) {
                 memcpy(*out + 3 * *n, s->xyz + 3 * i, 3 * sizeof **out);
+                if (s->edge)
+                    (*edge)[*n] = s->edge[i];
                 (*n)++;
             }
     }

@@ -51,8 +51,10 @@ void wpd_run_store_clear(wpd_run *run);
 size_t wpd_run_store_count(const wpd_run *run);
 
 /* Samples of t's neighbours within dist of t's box (frame coordinates, at
- * their current positions), malloc'd into *out. Returns 0 or -1. */
-int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **out, size_t *n);
+ * their current positions), malloc'd into *out, and their sharp labels into
+ * *edge (NULL when the samples carry none). Returns 0 or -1. */
+int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **out,
+                              uint8_t **edge, size_t *n);
 
 /* Work on one tile; threads: the threads it may use. */
 typedef int (*wpd_tile_fn)(wpd_run *run, int t, int threads, void *arg, wpd_error *err);

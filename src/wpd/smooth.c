@@ -117,7 +117,12 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
             memcpy(uvn + 6, pl.normal, sizeof pl.normal);
             int sharp_with_normal_neighbour = 0;
             for (int j = 0; j < got; j++) {
-                if (in->edge && in->edge[i] && (nb[j] >= n || !in->edge[nb[j]]))
+                /* A neighbouring block's sample counts by its own label:
+                 * a tile border must not fix an edge sample that the
+                 * whole cloud would move. */
+                int nb_sharp = nb[j] < n ? in->edge[nb[j]]
+                                         : in->ctx_edge && in->ctx_edge[nb[j] - n];
+                if (in->edge && in->edge[i] && !nb_sharp)
                     sharp_with_normal_neighbour = 1;
                 nb[j] = nb[j] < n ? inv[nb[j]] : nb[j]; /* to order space */
             }

@@ -42,6 +42,7 @@ typedef struct wpd_smooth_input {
     size_t n;
     const uint8_t *edge;     /* per sample: sharp-feature label, or NULL */
     const double *ctx_xyz;   /* samples of neighbouring blocks: neighbours only */
+    const uint8_t *ctx_edge; /* their sharp-feature labels, or NULL (none sharp) */
     size_t nctx;
     const wpd_grid *surface; /* grid over the input points, or NULL: no projection */
     double surface_hint;     /* guess of the distance to the k-th nearest input
