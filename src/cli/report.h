@@ -8,7 +8,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
-#include "ooc/spill.h"
+#include "spill/spill.h"
 #include "wpd/wpd.h"
 
 typedef struct wpd_run_info {

@@ -33,7 +33,7 @@
 #include "common/error.h"
 #include "common/progress.h"
 #include "io/cloud.h"
-#include "ooc/spill.h"
+#include "spill/spill.h"
 #include "wpd/wpd.h"
 
 typedef struct wpd_engine_options {

@@ -1,4 +1,4 @@
-/* test_spill.c - spill files (src/ooc/spill.c) and private temporary
+/* test_spill.c - spill files (src/spill/) and private temporary
  * directories (src/ooc/tmpdir.c). */
 #include "harness.h"
 
@@ -15,7 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "ooc/spill.h"
+#include "spill/spill.h"
 #include "common/tmpdir.h"
 
 /* ---- helpers ---- */
