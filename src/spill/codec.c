@@ -216,8 +216,9 @@ static inline int rebuilds(int64_t K, double g, double v)
 }
 
 /* Encodes the n values v[0], v[3], ... on the binary grid g = 2^gexp (see
- * above) into h and out. Returns the bytes written, or 0 if a value is
- * not a multiple of g below 2^62 g (the caller then tries another way). */
+ * above) into h and out. Returns the bytes written plus 1, or 0 if a value
+ * is not a multiple of g below 2^62 g or the encoding would take more than
+ * 8 bytes a value (the caller then tries another way). */
 static size_t encode_axis_on(const double *v, size_t n, int gexp, axis_head *h, uint8_t *out,
                              uint64_t *dq, uint64_t *rr)
 {
@@ -255,6 +256,11 @@ static size_t encode_axis_on(const double *v, size_t n, int gexp, axis_head *h, 
         return 0;
     h->wq = wpd_plane_width(dor);
     h->wr = wpd_plane_width(ror);
+    /* Values off the guessed decimal grid (a chunk mixing inputs of two
+     * scales, or adversarial data) can need wide residuals: above 8 bytes a
+     * point raw doubles are smaller, and wpd_coords_bound counts on 8. */
+    if (h->wq + h->wr > 8)
+        return 0;
     wpd_planes_put(out, dq, n, h->wq);
     wpd_planes_put(out + h->wq * n, rr, n, h->wr);
     return (size_t)(h->wq + h->wr) * n + 1; /* + 1: never 0; the caller subtracts it */
@@ -308,7 +314,8 @@ static int axis_valid(const axis_head *h)
         return 0;
     if (h->mode == AXIS_FIXED)
         return h->wr == 0 && h->S == 0;
-    return h->mode == AXIS_GRID && h->S >= 2 && h->S <= 0x1p60; /* false for NaN */
+    return h->mode == AXIS_GRID && h->wq + h->wr <= 8 && h->S >= 2 &&
+           h->S <= 0x1p60; /* false for NaN */
 }
 
 /* Bytes the body of a valid axis block takes for n points. */

@@ -206,10 +206,35 @@ TEST(codec_constant_axis_and_any_gids)
     cols_free(&c);
 }
 
+/* Found by fuzz_spill_codec: the 16 values the decimal grid is guessed
+ * from lie on 0.01, the others are random doubles of the same range, so
+ * residuals need 8 bytes on top of the grid index; with random gids the
+ * encoder wrote past wpd_coords_bound(n). Such an axis must go raw. */
+TEST(codec_off_grid_values_stay_within_bound)
+{
+    enum { N = 1000 };
+    uint64_t seed = 8;
+    cols c = cols_new(N);
+    for (size_t i = 0; i < N; i++) {
+        c.gid[i] = rng_next(&seed);
+        c.halo[i] = 1;
+        for (int k = 0; k < 3; k++)
+            c.xyz[3 * i + k] = 1.0 + (double)(rng_next(&seed) >> 12) / 4503599627370496.0;
+    }
+    for (size_t k = 0; k < 16; k++) /* the grid guess's samples */
+        for (int a = 0; a < 3; a++)
+            c.xyz[3 * (k * N / 16) + a] = 1.0 + (double)(k * 7 % 100) * 0.01;
+    size_t size;
+    CHECK(round_trip(&c, &size, failures_) == 0);
+    CHECK_MSG(size <= wpd_coords_bound(N), "%zu bytes, bound %zu", size, wpd_coords_bound(N));
+    cols_free(&c);
+}
+
 TEST(codec_too_many_points_is_refused)
 {
     /* checked before any column is touched */
-    CHECK(wpd_coords_encode(NULL, NULL, NULL, (size_t)WPD_COORDS_MAX_POINTS + 1, NULL, NULL) == 0);
+    size_t n = (size_t)WPD_COORDS_MAX_POINTS + 1;
+    CHECK(wpd_coords_encode(NULL, NULL, NULL, n, NULL, NULL) == 0);
 }
 
 TEST(planes_round_trip)
