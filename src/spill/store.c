@@ -160,20 +160,10 @@ void wpd_spill_default_options(wpd_spill_options *o)
     o->spares_per_thread = WPD_SPILL_SPARES_PER_THREAD;
 }
 
-wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_size,
-                            const wpd_spill_options *opt, wpd_error *err)
+/* Options (clamped), chunk capacity and the initial state of a new spill. */
+static void configure(wpd_spill *s, int ntiles, uint32_t record_size,
+                      const wpd_spill_options *opt)
 {
-    if (ntiles < 1 || ntiles > (1 << 22) || record_size > (1u << 20)) {
-        wpd_fail(err, WPD_E_USAGE, "%s: cannot spill %d tiles of %u-byte records", base_dir,
-                 ntiles, record_size);
-        return NULL;
-    }
-    wpd_spill *s = calloc(1, sizeof *s);
-    if (!s || !(s->tiles = calloc((size_t)ntiles, sizeof *s->tiles))) {
-        free(s);
-        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for %d spill tiles", base_dir, ntiles);
-        return NULL;
-    }
     if (opt)
         s->opt = *opt;
     else
@@ -196,22 +186,47 @@ wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_si
     pthread_cond_init(&s->cv_job, NULL);
     pthread_cond_init(&s->cv_free, NULL);
     pthread_cond_init(&s->cv_idle, NULL);
+}
+
+/* Starts the compression threads the options ask for (at most 64); as
+ * many as start are used (0: compression on the appending thread). */
+static void start_workers(wpd_spill *s)
+{
+    int want = s->opt.threads < 0 ? 0 : s->opt.threads > 64 ? 64 : s->opt.threads;
+    if (!want)
+        return;
+    int spares = s->opt.spares_per_thread < 1 ? 1 : s->opt.spares_per_thread;
+    /* Room for every tile's buffer and every spare: a push never waits. */
+    s->qcap = (size_t)s->ntiles + (size_t)want * (size_t)spares + 1;
+    s->queue = malloc(s->qcap * sizeof *s->queue);
+    s->workers = malloc((size_t)want * sizeof *s->workers);
+    s->max_spares = want * spares;
+    for (int k = 0; s->queue && s->workers && k < want; k++)
+        if (pthread_create(&s->workers[k], NULL, spill_worker_main, s) == 0)
+            s->nworkers++;
+}
+
+wpd_spill *wpd_spill_create(const char *base_dir, int ntiles, uint32_t record_size,
+                            const wpd_spill_options *opt, wpd_error *err)
+{
+    if (ntiles < 1 || ntiles > (1 << 22) || record_size > (1u << 20)) {
+        wpd_fail(err, WPD_E_USAGE, "%s: cannot spill %d tiles of %u-byte records", base_dir,
+                 ntiles, record_size);
+        return NULL;
+    }
+    wpd_spill *s = calloc(1, sizeof *s);
+    if (!s || !(s->tiles = calloc((size_t)ntiles, sizeof *s->tiles))) {
+        free(s);
+        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for %d spill tiles", base_dir, ntiles);
+        return NULL;
+    }
+    configure(s, ntiles, record_size, opt);
     if (wpd_tmpdir_create(base_dir, "wpd-spill", s->dir, sizeof s->dir, err)) {
         s->dir[0] = '\0';
         wpd_spill_destroy(s);
         return NULL;
     }
-    int want = s->opt.threads < 0 ? 0 : s->opt.threads > 64 ? 64 : s->opt.threads;
-    if (want) {
-        int spares = s->opt.spares_per_thread < 1 ? 1 : s->opt.spares_per_thread;
-        s->qcap = (size_t)ntiles + (size_t)want * (size_t)spares + 1;
-        s->queue = malloc(s->qcap * sizeof *s->queue);
-        s->workers = malloc((size_t)want * sizeof *s->workers);
-        s->max_spares = want * spares;
-        for (int k = 0; s->queue && s->workers && k < want; k++)
-            if (pthread_create(&s->workers[k], NULL, spill_worker_main, s) == 0)
-                s->nworkers++;
-    }
+    start_workers(s);
     if (!s->nworkers && spill_packer_init(s, &s->sync_packer)) {
         wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for spill compression", s->dir);
         wpd_spill_destroy(s);
