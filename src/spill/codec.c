@@ -124,9 +124,10 @@ static void halo_unpack(uint8_t *halo, const uint8_t *bits, size_t n)
         halo[k] = (bits[i / 8] >> (k - i)) & 1;
 }
 
-/* Round to nearest (ties to even) for |x| < 2^51 without a libm call;
- * beyond that merely repeatable, which is all the codec needs: encoder and
- * decoder compute the same expression. */
+/* Round to nearest (ties to even) for |x| < 2^51 without a libm call.
+ * Beyond that the result is merely repeatable and need not even be an
+ * integer (x = -(2^51 + 0.5) stays as it is): callers that store it
+ * convert it to int64 and use that value from then on. */
 static inline double round_near(double x)
 {
     const double magic = 6755399441055744.0; /* 1.5 * 2^52 */
@@ -248,7 +249,9 @@ static size_t encode_axis_on(const double *v, size_t n, int gexp, axis_head *h, 
             int64_t K = (int64_t)Kd, q = (int64_t)qd;
             ok &= rebuilds(K, g, v[3 * i]);
             dor |= dq[i] = zigzag(q - prev);
-            ror |= rr[i] = zigzag(K - (int64_t)grid_predict(qd, S));
+            /* Predict from the stored integer q, not qd: the decoder
+             * only has q, and qd need not be an integer (below). */
+            ror |= rr[i] = zigzag(K - (int64_t)grid_predict((double)q, S));
             prev = q;
         }
     }
