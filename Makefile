@@ -38,8 +38,9 @@ build/%.o: %.c
 build/unit_tests: $(TEST_OBJ) build/libwpd.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LDLIBS)
 
-# Spill format measurements (bench/spill.sh); includes src/ooc/spill.c.
-build/spill_bench: bench/spill_bench.c src/ooc/spill.c build/libwpd.a
+# Spill format measurements (bench/spill.sh); links the spill library
+# (src/spill/) from build/libwpd.a like the program.
+build/spill_bench: bench/spill_bench.c build/libwpd.a
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< build/libwpd.a $(LDLIBS)
 
 -include $(LIB_OBJ:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_OBJ:.o=.d)
@@ -78,8 +79,9 @@ clean:
 	rm -rf build wpd
 
 # ---- Hardening: fuzzing and sanitizer builds (docs/hardening.md) ----------
-# make fuzz [FUZZ_RUNS=N]  libFuzzer targets for the PLY and LAS readers, one
-#                          after the other on one core, seeded from the data
+# make fuzz [FUZZ_RUNS=N]  libFuzzer targets for the PLY and LAS readers and
+#                          the spill codec, one after the other on one core,
+#                          seeded from the data (the codec: generated seeds)
 # make fuzz-smoke          the same for FUZZ_SMOKE_RUNS executions (CI)
 # make test-asan           the whole suite against ASan+UBSan builds
 # Separate build trees (build/fuzz, build/asan): never mixed with build/.
@@ -100,7 +102,10 @@ FUZZ_LIB_SRC    := src/io/reader.c src/io/las_read.c src/io/ply_read.c src/io/pl
                    src/io/ply_stream.c src/io/decimal.c src/io/schema.c src/io/batch.c \
                    src/common/error.c src/common/fullio.c
 FUZZ_LIB_OBJ    := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/%.o)
-FUZZ_TARGETS    := $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/fuzz_las
+# The spill codec is pure (no I/O, no threads): its two files and errors.
+FUZZ_CODEC_SRC  := src/spill/codec.c src/spill/planes.c src/common/error.c
+FUZZ_CODEC_OBJ  := $(FUZZ_CODEC_SRC:%.c=$(FUZZ_DIR)/%.o)
+FUZZ_TARGETS    := $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/fuzz_spill_codec
 
 ASAN_DIR        := build/asan
 ASAN_SAN        := -fsanitize=address,undefined -fno-omit-frame-pointer \
@@ -124,21 +129,27 @@ $(FUZZ_DIR)/fuzz_ply: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ
 $(FUZZ_DIR)/fuzz_las: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -DFUZZ_LAS -o $@ $< $(FUZZ_LIB_OBJ) -lm
 
+$(FUZZ_DIR)/fuzz_spill_codec: tests/fuzz/fuzz_spill_codec.c $(FUZZ_CODEC_OBJ)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_CODEC_OBJ) -lm
+
 fuzz-build: fuzz-deps
 	@$(MAKE) --no-print-directory $(FUZZ_TARGETS)
 
 fuzz-seeds:
 	python3 tests/fuzz/make_seeds.py $(FUZZ_DATA) $(FUZZ_DIR)/seeds $(FUZZ_MAX_LEN)
+	python3 tests/fuzz/make_codec_seeds.py $(FUZZ_DIR)/seeds/codec
 
 fuzz: fuzz-build fuzz-seeds
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/ply $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/las $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/seeds/codec $(FUZZ_DIR)/codec $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 
 # Fresh corpora and a fixed seed: the same executions on every CI run.
 fuzz-smoke: fuzz-build fuzz-seeds
 	rm -rf $(FUZZ_DIR)/smoke
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/smoke/ply $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/smoke/las $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/seeds/codec $(FUZZ_DIR)/smoke/codec $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 
 $(ASAN_DIR)/%.o: %.c
 	@mkdir -p $(dir $@)
@@ -159,4 +170,4 @@ asan-build: deps
 test-asan: asan-build
 	tests/asan.sh $(ASAN_DIR)
 
--include $(FUZZ_LIB_OBJ:.o=.d) $(ASAN_LIB_OBJ:.o=.d) $(ASAN_MAIN_OBJ:.o=.d) $(ASAN_TEST_OBJ:.o=.d)
+-include $(FUZZ_LIB_OBJ:.o=.d) $(FUZZ_CODEC_OBJ:.o=.d) $(ASAN_LIB_OBJ:.o=.d) $(ASAN_MAIN_OBJ:.o=.d) $(ASAN_TEST_OBJ:.o=.d)

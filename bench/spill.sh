@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Spill files of the out-of-core engine (src/ooc/spill.c): the measurements
+# Spill files of the out-of-core engine (src/spill/): the measurements
 # behind its format and defaults.
 #  1. Layouts: candidate encodings of the coordinate part (gid, xyz, halo)
 #     and of the records, zstd levels -7 .. 3: compressed ratio and

@@ -1,4 +1,4 @@
-/* spill_bench.c - measurements behind the spill format (src/ooc/spill.c).
+/* spill_bench.c - measurements behind the spill format (src/spill/).
  *
  *   spill_bench layouts FILE [TILES] [BUFFER_BYTES]
  *       Loads FILE, splits it into TILES (default 64) tiles by an x/y grid
@@ -30,14 +30,14 @@
  *   shuf-d    shuf with x, y, z replaced by the difference of their bit
  *             patterns from the previous point's (as 64-bit integers)
  *   shuf-x    shuf with x, y, z replaced by XOR with the previous point's
- *   quant     what spill.c does: per chunk and axis the values become
- *             integers on their binary grid and indices on their decimal
- *             grid (LAS scale) plus a rounding residual; differences, in
- *             the fewest bytes, as byte planes (see spill.c)
+ *   quant     what the spill does (src/spill/codec.h): per chunk and axis
+ *             the values become integers on their binary grid and indices
+ *             on their decimal grid (LAS scale) plus a rounding residual;
+ *             differences, in the fewest bytes, as byte planes
  * Record part: raw rows, or transposed (byte k of every record together).
  *
- * It includes spill.c itself (below) to measure its internal codec, so the
- * program does not link the library's copy of the module.
+ * The spill's own codec (spill/codec.h) and byte planes (spill/planes.h)
+ * are measured through their headers, as the library links them.
  */
 
 #include <malloc.h>
@@ -50,7 +50,9 @@
 #include <omp.h>
 
 #include "io/reader.h"
-#include "ooc/spill.c"
+#include "spill/codec.h"
+#include "spill/planes.h"
+#include "spill/spill.h"
 
 static double now(void)
 {
@@ -160,13 +162,13 @@ typedef struct chunk {
     uint8_t *rec;
 } chunk;
 
-/* Writes the coordinate part of c in layout L into out (coord_bound(n)
+/* Writes the coordinate part of c in layout L into out (wpd_coords_bound(n)
  * bytes); tmp holds 16 n bytes of scratch. Returns the bytes written. */
 static size_t encode(int L, const chunk *c, uint8_t *out, uint64_t *tmp)
 {
     size_t n = c->n;
     if (L == QUANT)
-        return encode_coords(c->gid, c->xyz, c->halo, n, out, tmp, tmp + n);
+        return wpd_coords_encode(c->gid, c->xyz, c->halo, n, out, tmp);
     if (L == ROWS) {
         for (size_t i = 0; i < n; i++) {
             memcpy(out + 33 * i, &c->gid[i], 8);
@@ -204,8 +206,9 @@ static void decode(int L, const uint8_t *in, size_t size, size_t n, chunk *d, ui
 {
     d->n = n;
     if (L == QUANT) {
-        if (decode_coords(in, size, n, d->gid, d->xyz, d->halo, tmp, tmp + n))
-            die("quant block does not decode");
+        wpd_error err;
+        if (wpd_coords_decode(in, size, n, d->gid, d->xyz, d->halo, tmp, &err))
+            die(err.msg);
         return;
     }
     if (L == ROWS) {
@@ -306,9 +309,9 @@ static result measure_coords(const chunks *cs, int L, int level, size_t per)
 {
     ZSTD_CCtx *cc = ZSTD_createCCtx();
     ZSTD_DCtx *dc = ZSTD_createDCtx();
-    size_t bound = ZSTD_compressBound(coord_bound(per));
-    uint8_t *raw = xmalloc(coord_bound(per)), *z = xmalloc(bound),
-            *back = xmalloc(coord_bound(per));
+    size_t bound = ZSTD_compressBound(wpd_coords_bound(per));
+    uint8_t *raw = xmalloc(wpd_coords_bound(per)), *z = xmalloc(bound),
+            *back = xmalloc(wpd_coords_bound(per));
     uint64_t *tmp = xmalloc(16 * per);
     chunk d = {0, xmalloc(8 * per), xmalloc(24 * per), xmalloc(per), NULL};
     result r = {0, 0, 0, 0};
@@ -318,7 +321,7 @@ static result measure_coords(const chunks *cs, int L, int level, size_t per)
         size_t rn = encode(L, c, raw, tmp);
         size_t zn = ZSTD_compressCCtx(cc, z, bound, raw, rn, level);
         double t1 = now();
-        size_t bn = ZSTD_decompressDCtx(dc, back, coord_bound(per), z, zn);
+        size_t bn = ZSTD_decompressDCtx(dc, back, wpd_coords_bound(per), z, zn);
         decode(L, back, bn, c->n, &d, tmp);
         double t2 = now();
         if (ZSTD_isError(zn) || bn != rn || memcmp(d.gid, c->gid, 8 * c->n) ||
@@ -350,14 +353,14 @@ static result measure_records(const chunks *cs, uint32_t rs, int transposed, int
         double t0 = now();
         const uint8_t *src = c->rec;
         if (transposed) {
-            transpose(raw, c->rec, c->n, rs);
+            wpd_planes_from_records(raw, c->rec, c->n, rs);
             src = raw;
         }
         size_t zn = ZSTD_compressCCtx(cc, z, bound, src, bytes, level);
         double t1 = now();
         size_t bn = ZSTD_decompressDCtx(dc, transposed ? back : out, rs * per, z, zn);
         if (transposed)
-            untranspose(out, back, c->n, rs);
+            wpd_planes_to_records(out, back, c->n, rs);
         double t2 = now();
         if (ZSTD_isError(zn) || bn != bytes || memcmp(out, c->rec, bytes))
             die("record round trip failed");

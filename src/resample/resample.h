@@ -31,7 +31,7 @@
 #include "common/error.h"
 #include "common/progress.h"
 #include "io/cloud.h"
-#include "ooc/spill.h"
+#include "spill/spill.h"
 #include "wpd/params.h"
 
 typedef struct wpd_resample_options {

@@ -9,7 +9,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
-#include "ooc/spill.h"
+#include "spill/spill.h"
 
 typedef struct wpd_tiles {
     int ntiles;

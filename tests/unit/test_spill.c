@@ -1,5 +1,5 @@
-/* test_spill.c - spill files (src/ooc/spill.c) and private temporary
- * directories (src/ooc/tmpdir.c). */
+/* test_spill.c - spill files (src/spill/) and private temporary
+ * directories (src/common/tmpdir.c). */
 #include "harness.h"
 
 #include <dirent.h>
@@ -15,7 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "ooc/spill.h"
+#include "spill/spill.h"
 #include "common/tmpdir.h"
 
 /* ---- helpers ---- */

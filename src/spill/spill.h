@@ -4,15 +4,22 @@
  * buffered and written as compressed chunks to a file of its own inside a
  * private spill directory. A tile is later read back whole, in the order
  * its points were appended, either its coordinates only or its coordinates
- * and records. (The engine creates its spill with record_size 0: it reads
- * the kept points' records from the inputs instead.) Memory: one buffer
- * per tile (buffer_bytes) while writing; reading allocates only what the
- * caller asks for.
+ * and records. Memory: one buffer per tile (buffer_bytes) while writing;
+ * reading allocates only what the caller asks for.
  *
  * Every point carries: its global index (uint64, increasing within a tile
  * because the tiler appends in input order), x y z (double, frame
  * coordinates), a halo flag (1: the point belongs to a neighbouring tile
  * and is only context here) and its record (record_size bytes, may be 0).
+ *
+ * Records: the engine creates its spill with record_size 0 (it reads the
+ * kept points' records from the inputs instead), but every chunk keeps a
+ * record frame and wpd_spill_read can return records: a reader whose
+ * inputs cannot be re-read cheaply at a point (a future LAZ reader: points
+ * of compressed inputs) may keep their records here. Do not remove them.
+ *
+ * The library (src/spill/): codec.c encodes the coordinates of a chunk,
+ * planes.c the records, store*.c the files, threads and read-back.
  */
 #ifndef WPD_SPILL_H
 #define WPD_SPILL_H
@@ -32,9 +39,9 @@ typedef struct wpd_spill wpd_spill;
 #define WPD_SPILL_SPARES_PER_THREAD 16
 
 typedef struct wpd_spill_options {
-    int level;               /* zstd level (see spill.c for the measured choice) */
+    int level;               /* zstd level (see store.c for the measured choice) */
     size_t buffer_bytes;     /* per-tile write buffer (uncompressed) */
-    int threads;             /* compression threads for wpd_spill_flush_full */
+    int threads;             /* compression threads (0: on the appending thread) */
     int spares_per_thread;   /* write buffers handed over per compression thread */
 } wpd_spill_options;
 
