@@ -9,6 +9,7 @@
 
 #include "resample/budget.h"
 #include "resample/run.h"
+#include "core/knn.h"
 #include "wpd/ladder.h"
 #include "wpd/radius.h"
 
@@ -184,6 +185,36 @@ static int finish(wpd_run *run, wpd_error *err)
     return 0;
 }
 
+/* The Poisson passes. The greedy pass is sequential, so with one tile in
+ * memory, smoothing to come and two threads or more, the tile's surface
+ * grid is built alongside it on another thread (the grid does not depend
+ * on the threads that build it). */
+static int poisson_phase(wpd_run *run, wpd_error *err)
+{
+    const wpd_params *p = run->p;
+    int surface = run->res->in_memory && p->smooth && p->iterations > 0 && p->keep_on_surface;
+    if (!surface || run->threads < 2)
+        return wpd_poisson_phase(run, err);
+    int rc = 0, surface_rc = 0;
+    wpd_error surface_err = {0};
+#pragma omp parallel sections num_threads(2)
+    {
+#pragma omp section
+        rc = wpd_poisson_phase(run, err);
+#pragma omp section
+        {
+            const wpd_tile_data *d = &run->tiles.mem;
+            surface_rc = wpd_grid_build_knn(&run->surface, d->xyz, NULL, d->n, p->k,
+                                            run->surface_dk, 1, &surface_err);
+        }
+    }
+    if (rc == 0 && surface_rc) {
+        *err = surface_err;
+        rc = -1;
+    }
+    return rc;
+}
+
 static int run_phases(wpd_run *run, wpd_error *err)
 {
     wpd_resample_timings *tm = &run->res->time;
@@ -192,7 +223,7 @@ static int run_phases(wpd_run *run, wpd_error *err)
     if (run->opt->target >= run->scan.count)
         return wpd_take_all_phase(run, err) || finish(run, err) ? -1 : 0;
     double t = omp_get_wtime();
-    if (wpd_poisson_phase(run, err))
+    if (poisson_phase(run, err))
         return -1;
     tm->poisson = omp_get_wtime() - t;
     t = omp_get_wtime();
@@ -237,6 +268,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     int rc = run_phases(&run, err);
     wpd_run_store_clear(&run);
     free(run.store);
+    wpd_grid_free(&run.surface);
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);
     wpd_scan_free(&run.scan);

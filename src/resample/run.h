@@ -15,6 +15,7 @@
 #include "resample/resample.h"
 #include "resample/scan.h"
 #include "resample/tiles.h"
+#include "core/grid.h"
 #include "wpd/poisson.h"
 
 /* The samples one tile accepted. */
@@ -38,6 +39,8 @@ typedef struct wpd_run {
     double halo;              /* halo width */
     double surface_dk;        /* cell of the input-surface grids: about the input's
                                  k-th neighbour distance */
+    wpd_grid surface;         /* one in-memory tile: its surface grid, built beside
+                                 the Poisson passes (empty otherwise) */
     wpd_resample_result *res;
 } wpd_run;
 

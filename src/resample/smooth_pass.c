@@ -22,20 +22,20 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     wpd_tile_data d;
     if (wpd_tiles_read(&run->tiles, t, &d, err))
         return -1;
-    wpd_grid surface = {0};
+    wpd_grid own = {0}, *surface = run->surface.n ? &run->surface : &own;
     double *ctx = NULL;
     uint8_t *ctx_edge = NULL;
     size_t nctx = 0;
     int rc = -1;
-    if (p->keep_on_surface &&
-        wpd_grid_build_knn(&surface, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
+    if (p->keep_on_surface && surface == &own &&
+        wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
         goto done;
     if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx)) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
         goto done;
     }
     wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, ctx_edge, nctx,
-                           p->keep_on_surface ? &surface : NULL, run->surface_dk,
+                           p->keep_on_surface ? surface : NULL, run->surface_dk,
                            (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations, r, threads,
                            {p->resolution[0], p->resolution[1], p->resolution[2]}};
     wpd_smooth_stats st;
@@ -47,7 +47,7 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     run->res->pulled_to_surface += st.pulled_to_surface;
     rc = 0;
 done:
-    wpd_grid_free(&surface);
+    wpd_grid_free(&own);
     free(ctx);
     free(ctx_edge);
     wpd_tiles_release(&run->tiles, &d);

@@ -63,5 +63,5 @@ def test_sharp_through_tiles_under_a_small_budget():
     # A cloud that does not fit --mem goes through the spill with --sharp
     # (it was refused before), with the exact count.
     wpd("synth", "-n", 400000, "--seed", 3, "-o", "city.las")
-    rep = resample("city.las", "out.las", 4000, "--sharp", "--mem", "64M")
+    rep = resample("city.las", "out.las", 4000, "--sharp", "--mem", "80M")
     assert rep["tiles"]["count"] >= 2 and rep["output_points"] == 4000, rep["tiles"]
