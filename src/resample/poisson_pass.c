@@ -19,9 +19,13 @@
  * that still have UNKNOWN own points, with every other tile's decisions
  * so far. Each round settles at least the UNKNOWN point of smallest
  * priority (its view holds every point within r of it, all decided), so
- * the rounds end; usually none is needed, rarely one. */
+ * the rounds end. Most UNKNOWN points lie near a border with a neighbour
+ * of a later colour, which sees them as candidates, not blind, and
+ * decides them for certain when it runs: such decisions go back to their
+ * owner after each colour, so few points are left for a second round. */
 #include "resample/run.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -32,11 +36,22 @@
 
 enum { MAX_ROUNDS = 10000 }; /* each round settles a point: only a bug gets here */
 
+/* Certain decisions a tile made about other tiles' UNKNOWN points. */
+typedef struct foreign {
+    size_t n;
+    uint64_t *gid;
+    double *xyz;
+    uint8_t *edge;
+    uint8_t *kept;             /* 1 kept, 0 removed */
+    int *owner;
+} foreign;
+
 /* What a pass shares between its tiles. */
 typedef struct pass_ctx {
     double r;
     int round;
     wpd_tile_samples *unknown; /* [ntiles] own points a tile could not decide */
+    foreign *foreign;          /* [ntiles] decisions on neighbours' UNKNOWN points */
     uint8_t *processed;        /* [ntiles] decided in this pass at least once */
     wpd_poisson *memo;         /* one in-memory tile: grid and priorities prepared
                                   once for every pass */
@@ -50,6 +65,9 @@ typedef struct view {
     uint32_t *cand;            /* candidates (view indices) */
     size_t ncand;
     uint8_t *blind;            /* [d.n] */
+    uint8_t *theirs;           /* [d.n] 1: a neighbour's UNKNOWN point (a candidate) */
+    uint8_t *wanted;           /* [d.n] own points and theirs: decisions needed; the
+                                  other halo points are decided on demand */
     double *fixed;             /* [3 nfixed] */
     uint8_t *fixed_edge;       /* [nfixed], or NULL */
     size_t nfixed;
@@ -62,6 +80,8 @@ static void view_free(const wpd_run *run, view *v)
     free(v->edge);
     free(v->cand);
     free(v->blind);
+    free(v->theirs);
+    free(v->wanted);
     free(v->fixed);
     free(v->fixed_edge);
     free(v->kept);
@@ -129,8 +149,10 @@ static void classify(const wpd_run *run, const pass_ctx *pc, int t, view *v, siz
     long k = find(kept, d->gid[i]);
     if (k >= 0)
         add_fixed(v, x, kept->edge ? kept->edge[k] : 0);
-    else if (find(&pc->unknown[home], d->gid[i]) >= 0)
+    else if (find(&pc->unknown[home], d->gid[i]) >= 0) {
+        v->theirs[i] = !own;
         v->cand[v->ncand++] = (uint32_t)i;
+    }
     /* else removed for certain: dropped */
 }
 
@@ -144,11 +166,13 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     size_t m = v->d.n ? v->d.n : 1;
     v->cand = malloc(m * sizeof *v->cand);
     v->blind = malloc(m);
+    v->theirs = calloc(m, 1);
+    v->wanted = malloc(m);
     v->fixed = malloc(3 * m * sizeof *v->fixed);
     v->fixed_edge = run->p->sharp ? malloc(m) : NULL;
     v->kept = malloc(m * sizeof *v->kept);
     v->unknown = malloc(m * sizeof *v->unknown);
-    if (!v->cand || !v->blind || !v->fixed || (run->p->sharp && !v->fixed_edge) || !v->kept ||
+    if (!v->cand || !v->blind || !v->theirs || !v->wanted || !v->fixed || (run->p->sharp && !v->fixed_edge) || !v->kept ||
         !v->unknown)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
     if (run->p->sharp && label_sharp(run, &v->d, threads, &v->edge, err))
@@ -158,6 +182,7 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     for (size_t i = 0; i < v->d.n; i++) {
         v->blind[i] = v->d.halo[i] && wpd_tile_distance(tile, v->d.xyz + 3 * i) >= blind_from;
         classify(run, pc, t, v, i);
+        v->wanted[i] = !v->d.halo[i] || v->theirs[i];
     }
     return 0;
 }
@@ -214,6 +239,119 @@ static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept
     return 0;
 }
 
+static void foreign_free(foreign *f)
+{
+    free(f->gid);
+    free(f->xyz);
+    free(f->edge);
+    free(f->kept);
+    free(f->owner);
+    memset(f, 0, sizeof *f);
+}
+
+/* The certain decisions of v about neighbours' UNKNOWN points, into *f
+ * (kept[] and unknown[] of the pass ascending). Returns 0 or -1. */
+static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
+                         foreign *f)
+{
+    size_t m = 0;
+    for (size_t c = 0; c < v->ncand; c++)
+        m += v->theirs[v->cand[c]];
+    if (m == 0)
+        return 0;
+    f->gid = malloc(m * sizeof *f->gid);
+    f->xyz = malloc(3 * m * sizeof *f->xyz);
+    f->edge = malloc(m);
+    f->kept = malloc(m);
+    f->owner = malloc(m * sizeof *f->owner);
+    if (!f->gid || !f->xyz || !f->edge || !f->kept || !f->owner)
+        return -1;
+    size_t a = 0, b = 0; /* walk kept and unknown along the ascending candidates */
+    for (size_t c = 0; c < v->ncand; c++) {
+        uint32_t i = v->cand[c];
+        while (a < nkept && v->kept[a] < i)
+            a++;
+        while (b < nunknown && v->unknown[b] < i)
+            b++;
+        if (!v->theirs[i] || (b < nunknown && v->unknown[b] == i))
+            continue;
+        const double *x = v->d.xyz + 3 * (size_t)i;
+        f->gid[f->n] = v->d.gid[i];
+        memcpy(f->xyz + 3 * f->n, x, 3 * sizeof *f->xyz);
+        f->edge[f->n] = v->edge ? v->edge[i] : 0;
+        f->kept[f->n] = a < nkept && v->kept[a] == i;
+        f->owner[f->n] = run->plan.cell_tile[wpd_scan_cell_of(&run->scan, x)];
+        f->n++;
+    }
+    return 0;
+}
+
+/* Removes sample k of s. */
+static void samples_remove(wpd_tile_samples *s, size_t k)
+{
+    size_t tail = s->n - k - 1;
+    memmove(s->gid + k, s->gid + k + 1, tail * sizeof *s->gid);
+    memmove(s->xyz + 3 * k, s->xyz + 3 * (k + 1), 3 * tail * sizeof *s->xyz);
+    if (s->edge)
+        memmove(s->edge + k, s->edge + k + 1, tail);
+    s->n--;
+}
+
+/* Inserts a sample into s at its place in gid order. Returns 0 or -1. */
+static int samples_insert(wpd_tile_samples *s, uint64_t gid, const double *xyz, uint8_t edge,
+                          int with_edge)
+{
+    size_t k = 0, n = s->n;
+    while (k < n && s->gid[k] < gid) /* few insertions: a scan is enough */
+        k++;
+    uint64_t *g = realloc(s->gid, (n + 1) * sizeof *g);
+    if (g)
+        s->gid = g;
+    double *x = realloc(s->xyz, 3 * (n + 1) * sizeof *x);
+    if (x)
+        s->xyz = x;
+    uint8_t *e = with_edge ? realloc(s->edge, n + 1) : s->edge;
+    if (with_edge && e)
+        s->edge = e;
+    if (!g || !x || (with_edge && !e))
+        return -1;
+    memmove(s->gid + k + 1, s->gid + k, (n - k) * sizeof *s->gid);
+    memmove(s->xyz + 3 * (k + 1), s->xyz + 3 * k, 3 * (n - k) * sizeof *s->xyz);
+    s->gid[k] = gid;
+    memcpy(s->xyz + 3 * k, xyz, 3 * sizeof *s->xyz);
+    if (with_edge) {
+        memmove(s->edge + k + 1, s->edge + k, n - k);
+        s->edge[k] = edge;
+    }
+    s->n++;
+    return 0;
+}
+
+/* After the tiles of a colour: their certain decisions about neighbours'
+ * UNKNOWN points go to the owners (two tiles may decide the same point:
+ * certain decisions agree, the second finds it settled). */
+static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
+{
+    pass_ctx *pc = arg;
+    for (int t = 0; t < run->plan.ntiles; t++) {
+        foreign *f = &pc->foreign[t];
+        if (run->plan.tiles[t].colour != colour || f->n == 0)
+            continue;
+        for (size_t i = 0; i < f->n; i++) {
+            wpd_tile_samples *u = &pc->unknown[f->owner[i]];
+            long k = find(u, f->gid[i]);
+            if (k < 0)
+                continue;
+            samples_remove(u, (size_t)k);
+            if (f->kept[i] && samples_insert(&run->store[f->owner[i]], f->gid[i],
+                                             f->xyz + 3 * i, f->edge[i], run->p->sharp))
+                return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", f->owner[i]);
+        }
+        foreign_free(f);
+    }
+    return 0;
+}
+
 /* One tile of a round of the pass at radius pc->r. */
 static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -227,12 +365,13 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
     const wpd_params *p = run->p;
     wpd_poisson_certain_input in = {
         {v.d.xyz, v.d.gid, v.edge, v.cand, v.ncand, v.fixed, v.nfixed, pc->r, p->seed, threads},
-        v.blind, v.fixed_edge};
+        v.blind, v.fixed_edge, v.wanted};
     size_t nunknown = 0;
     long m = wpd_poisson_pass_certain(&in, v.kept, v.unknown, &nunknown, err);
     if (m < 0)
         goto done;
-    if (settle(run, pc, t, &v, (size_t)m, nunknown)) {
+    if (settle(run, pc, t, &v, (size_t)m, nunknown) ||
+        record_theirs(run, &v, (size_t)m, nunknown, &pc->foreign[t])) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
         goto done;
     }
@@ -314,8 +453,16 @@ static int full_pass(wpd_run *run, pass_ctx *pc, size_t *count, wpd_error *err)
             if (pc->round == MAX_ROUNDS)
                 return wpd_fail(err, WPD_E_USAGE, "poisson: %zu points still undecided after "
                                 "%d rounds (a bug)", unknown_count(run, pc), MAX_ROUNDS);
-            if (wpd_run_each_tile(run, pc->round ? NULL : "poisson", certain_tile, pc, err))
+            if (wpd_run_each_tile(run, pc->round ? NULL : "poisson", certain_tile, hand_back, pc,
+                                  err))
                 return -1;
+            if (getenv("WPD_DEBUG_ROUNDS")) {
+                int tiles = 0;
+                for (int t = 0; t < ntiles; t++)
+                    tiles += pc->unknown[t].n > 0;
+                fprintf(stderr, "round %d: %zu unknown in %d tiles\n", pc->round,
+                        unknown_count(run, pc), tiles);
+            }
         }
         run->res->resolution_rounds += pc->round - 1;
     }
@@ -328,7 +475,10 @@ static void pass_ctx_free(const wpd_run *run, pass_ctx *pc)
 {
     for (int t = 0; pc->unknown && t < run->plan.ntiles; t++)
         wpd_samples_free(&pc->unknown[t]);
+    for (int t = 0; pc->foreign && t < run->plan.ntiles; t++)
+        foreign_free(&pc->foreign[t]);
     free(pc->unknown);
+    free(pc->foreign);
     free(pc->processed);
     wpd_poisson_release(pc->memo);
     free(pc->memo_edge);
@@ -348,7 +498,8 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
     pass_ctx pc = {0};
     pc.unknown = calloc((size_t)run->plan.ntiles, sizeof *pc.unknown);
     pc.processed = calloc((size_t)run->plan.ntiles, 1);
-    if (!pc.unknown || !pc.processed) {
+    pc.foreign = calloc((size_t)run->plan.ntiles, sizeof *pc.foreign);
+    if (!pc.unknown || !pc.processed || !pc.foreign) {
         pass_ctx_free(run, &pc);
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     }
@@ -401,5 +552,5 @@ static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error 
 
 int wpd_take_all_phase(wpd_run *run, wpd_error *err)
 {
-    return wpd_run_each_tile(run, NULL, take_all_tile, NULL, err);
+    return wpd_run_each_tile(run, NULL, take_all_tile, NULL, NULL, err);
 }

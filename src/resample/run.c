@@ -67,8 +67,8 @@ int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **o
     return 0;
 }
 
-int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
-                      wpd_error *err)
+int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                      wpd_colour_fn after_colour, void *arg, wpd_error *err)
 {
     int ntiles = run->plan.ntiles;
     int workers = wpd_budget_tile_workers(run->threads, ntiles);
@@ -86,6 +86,9 @@ int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg
                 wpd_first_error_keep(&fe, &local);
             wpd_progress_add(run->opt->progress, 1);
         }
+        wpd_error local = {0};
+        if (!wpd_first_error_failed(&fe) && after_colour && after_colour(run, c, arg, &local))
+            wpd_first_error_keep(&fe, &local);
     }
     if (phase)
         wpd_progress_end(run->opt->progress);

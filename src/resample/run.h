@@ -62,13 +62,17 @@ int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **o
 /* Work on one tile; threads: the threads it may use. */
 typedef int (*wpd_tile_fn)(wpd_run *run, int t, int threads, void *arg, wpd_error *err);
 
+/* Work after the tiles of one colour are done, on one thread. */
+typedef int (*wpd_colour_fn)(wpd_run *run, int colour, void *arg, wpd_error *err);
+
 /* Runs fn on every tile, colour by colour, the tiles of a colour in
- * parallel (one tile: all threads inside it). Tiles of one colour are never
- * neighbours, so each sees exactly the work of its neighbours of earlier
- * colours, whatever the threads. progress: a phase of ntiles "tiles", or
- * NULL name for none. Returns 0, or -1 with the first failure in err. */
-int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
-                      wpd_error *err);
+ * parallel (one tile: all threads inside it), then after_colour (may be
+ * NULL) once per colour. Tiles of one colour are never neighbours, so each
+ * sees exactly the work of its neighbours of earlier colours, whatever the
+ * threads. phase: a progress phase of ntiles "tiles", or NULL for none.
+ * Returns 0, or -1 with the first failure in err. */
+int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                      wpd_colour_fn after_colour, void *arg, wpd_error *err);
 
 /* Phases (each in its own file). */
 int wpd_tile_pass(wpd_run *run, wpd_error *err);                 /* tile.c */

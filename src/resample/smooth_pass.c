@@ -59,5 +59,5 @@ int wpd_smooth_phase(wpd_run *run, wpd_error *err)
     if (!run->p->smooth || run->p->iterations <= 0)
         return 0;
     run->res->moved = 1;
-    return wpd_run_each_tile(run, "smooth", smooth_tile, NULL, err);
+    return wpd_run_each_tile(run, "smooth", smooth_tile, NULL, NULL, err);
 }

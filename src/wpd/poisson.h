@@ -69,6 +69,10 @@ typedef struct wpd_poisson_certain_input {
                                   edge label may be wrong; NULL: none */
     const uint8_t *fixed_edge; /* per fixed point: 1 = sharp-feature sample,
                                   radius r/2; NULL: every fixed point r */
+    const uint8_t *wanted;     /* per point, indexed like base.xyz: 1 = the caller
+                                  needs this candidate's decision; 0 = decide it only
+                                  where a wanted one depends on it (a tile's halo
+                                  points), else report it UNKNOWN; NULL: all wanted */
 } wpd_poisson_certain_input;
 
 /* Three-valued pass, for a block that sees only part of the cloud: every

@@ -49,8 +49,9 @@ typedef struct world {
     uint8_t *dec;     /* [n] decision of the point's owner, D_* */
     /* scratch, [n] each */
     uint32_t *cand, *kept, *unknown, *view;
-    uint8_t *blind, *bedge, *fedge, *status, *local_edge;
+    uint8_t *blind, *bedge, *fedge, *status, *local_edge, *wanted;
     double *fixed, *local_xyz;
+    int lazy;            /* 1: only own points wanted, the rest on demand */
     /* tallies */
     size_t wrong;        /* certain decisions that differ from the one-block pass */
     size_t label_wrong;  /* labels of non-blind view points that differ */
@@ -74,6 +75,7 @@ static void world_init(world *w, const cloud *c, int labels, uint64_t seed)
     w->unknown = malloc(n * sizeof *w->unknown);
     w->view = malloc(n * sizeof *w->view);
     w->blind = calloc(n, 1);
+    w->wanted = calloc(n, 1);
     w->bedge = calloc(n, 1);
     w->fedge = calloc(n, 1);
     w->status = calloc(n, 1);
@@ -103,7 +105,7 @@ static void world_init(world *w, const cloud *c, int labels, uint64_t seed)
 static void world_free(world *w)
 {
     free(w->owner); free(w->global); free(w->dec); free(w->cand); free(w->kept);
-    free(w->unknown); free(w->view); free(w->blind); free(w->bedge); free(w->fedge);
+    free(w->unknown); free(w->view); free(w->blind); free(w->wanted); free(w->bedge); free(w->fedge);
     free(w->status); free(w->local_edge); free(w->fixed); free(w->local_xyz); free(w->edge);
 }
 
@@ -210,11 +212,12 @@ static long run_block(world *w, int b, int use_others, const uint8_t *snap, uint
         } else if (st != D_KEPT && st != D_REMOVED && d < H) {
             w->cand[ncand++] = (uint32_t)i;
             w->blind[i] = d >= H - r;
+            w->wanted[i] = (uint8_t)own;
         }
     }
     wpd_poisson_certain_input in = {
         {c->xyz, c->gid, edge, w->cand, ncand, w->fixed, nfixed, r, w->seed, 1},
-        w->blind, w->edge ? w->fedge : NULL};
+        w->blind, w->edge ? w->fedge : NULL, w->lazy ? w->wanted : NULL};
     size_t nunk = 0;
     wpd_error err;
     long m = wpd_poisson_pass_certain(&in, w->kept, w->unknown, &nunk, &err);
@@ -353,7 +356,7 @@ TEST(poisson_certain_without_blind_points_is_the_plain_pass)
             /* blind NULL: the plain code; all-zero blind: the three-valued
              * machinery, which must then agree. */
             for (int z = 0; z < 2; z++) {
-                wpd_poisson_certain_input ci = {in, z ? none : NULL, NULL};
+                wpd_poisson_certain_input ci = {in, z ? none : NULL, NULL, NULL};
                 size_t nu = 99;
                 long gb = wpd_poisson_pass_certain(&ci, b, u, &nu, &err);
                 CHECK_MSG(ga > 0 && ga == gb && nu == 0 && memcmp(a, b, (size_t)ga * 4) == 0,
@@ -361,7 +364,7 @@ TEST(poisson_certain_without_blind_points_is_the_plain_pass)
                           z ? "zeros" : "NULL", ga, gb, nu);
             }
             /* Contexts, at radii that force a rebuild of the grid. */
-            wpd_poisson_certain_input ci = {in, none, NULL};
+            wpd_poisson_certain_input ci = {in, none, NULL, NULL};
             wpd_poisson *ps = wpd_poisson_prepare_certain(&ci, &err);
             CHECK(ps != NULL);
             for (int k = 0; ps && k < 3; k++) {
@@ -459,7 +462,7 @@ TEST(poisson_certain_matches_a_brute_force_reading_of_the_rules)
             }
             wpd_poisson_certain_input ci = {
                 {c.xyz, c.gid, t == 1 ? NULL : edge, NULL, n, fixed, 8, 1.0, (uint64_t)t, 2},
-                blind, t == 2 ? NULL : fedge};
+                blind, t == 2 ? NULL : fedge, NULL};
             memset(want, D_NONE, n);
             brute_force(&ci, want);
             size_t nu = 0;
@@ -494,7 +497,7 @@ TEST(poisson_certain_blind_points_and_fixed_labels)
     uint32_t kept[4], unk[4];
     size_t nu = 0;
     wpd_error err;
-    wpd_poisson_certain_input ci = {{xyz, gid, NULL, NULL, 4, fixed, 1, 1.0, 7, 1}, all, NULL};
+    wpd_poisson_certain_input ci = {{xyz, gid, NULL, NULL, 4, fixed, 1, 1.0, 7, 1}, all, NULL, NULL};
     long m = wpd_poisson_pass_certain(&ci, kept, unk, &nu, &err);
     /* Point 0 lies 0.74 from the fixed point (< 0.75): removed, whatever
      * its label; points 1 and 2 (0.7^2 + 0.74^2 > 0.75^2) and 3 are not. */
@@ -505,7 +508,7 @@ TEST(poisson_certain_blind_points_and_fixed_labels)
     uint8_t none[4] = {0}, sharp_fixed[1] = {1};
     double f2[] = {0.8, 0.0, 0.0};
     double one[] = {0, 0, 0};
-    wpd_poisson_certain_input a = {{one, gid, NULL, NULL, 1, f2, 1, 1.0, 7, 1}, none, sharp_fixed};
+    wpd_poisson_certain_input a = {{one, gid, NULL, NULL, 1, f2, 1, 1.0, 7, 1}, none, sharp_fixed, NULL};
     CHECK(wpd_poisson_pass_certain(&a, kept, unk, &nu, &err) == 1 && nu == 0);
     a.fixed_edge = NULL;
     CHECK(wpd_poisson_pass_certain(&a, kept, unk, &nu, &err) == 0 && nu == 0);
@@ -521,7 +524,7 @@ TEST(poisson_certain_blind_points_and_fixed_labels)
         if (k == 0 || wpd_priority(7, x) > wpd_priority(7, g2[0]))
             g2[k++] = x;
     uint8_t e2[] = {1, 0}, b2[] = {1, 0};
-    wpd_poisson_certain_input t = {{two, g2, e2, NULL, 2, NULL, 0, 1.0, 7, 1}, b2, NULL};
+    wpd_poisson_certain_input t = {{two, g2, e2, NULL, 2, NULL, 0, 1.0, 7, 1}, b2, NULL, NULL};
     CHECK(wpd_poisson_pass_certain(&t, kept, unk, &nu, &err) == 0 && nu == 2);
     b2[0] = 0; /* now its label is known: sharp, no conflict at 0.8 */
     CHECK(wpd_poisson_pass_certain(&t, kept, unk, &nu, &err) == 2 && nu == 0);
@@ -541,6 +544,7 @@ TEST(poisson_certain_decisions_on_random_partitions_match_the_one_block_pass)
             for (size_t p = 0; p < partitions_per; p++) {
                 int nb = 2 + (int)(unit(&st) * 15); /* 2..16 */
                 random_partition(&w, nb, &st);
+                w.lazy = (int)(p % 2); /* halo points decided on demand, as tiles do */
                 for (int coloured = 0; coloured < 2; coloured++) {
                     size_t first = 0;
                     int rounds = solve(&w, coloured, 64, &first);
