@@ -37,6 +37,9 @@ int synth_flight_plan(flight *f, const scene *sc, uint64_t points);
 void synth_flight_free(flight *f);
 
 /* Local x of the track of strip i. */
-static inline double strip_centre(const flight *f, int i) { return f->first_centre + i * f->spacing; }
+static inline double strip_centre(const flight *f, int i)
+{
+    return f->first_centre + i * f->spacing;
+}
 
 #endif

@@ -39,7 +39,10 @@ static inline double hash_unit(uint64_t h, unsigned k)
 typedef struct rng { uint64_t state; } rng;
 
 /* Starts the stream of r from seed (any value). */
-static inline void rng_seed(rng *r, uint64_t seed) { r->state = mix64(seed ^ 0x5eed5eed5eed5eedULL); }
+static inline void rng_seed(rng *r, uint64_t seed)
+{
+    r->state = mix64(seed ^ 0x5eed5eed5eed5eedULL);
+}
 
 /* The next 64 random bits of r. */
 static inline uint64_t rng_next(rng *r)
