@@ -95,6 +95,27 @@ int preview_cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Expected spacing of the sample's points (n >= 2), to size the kNN grid:
+ * the area they cover (the windows', or the two widest extents) shared
+ * among them; 1 when that is degenerate. */
+static double spacing_guess(const spacing_sample *s, int threads)
+{
+    double lo[3], hi[3];
+    wpd_point_bounds(s->xyz, NULL, s->n, lo, hi, threads);
+    double area = 1;
+    if (s->windowed) {
+        for (int k = 0; k < 2; k++)
+            area *= isinf(s->half[k]) ? hi[s->axis[k]] - lo[s->axis[k]] : 2 * s->half[k];
+        area *= WINDOWS_PER_AXIS * WINDOWS_PER_AXIS;
+    } else {
+        double e[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+        qsort(e, 3, sizeof *e, preview_cmp_double);
+        area = e[2] * (e[1] > 0 ? e[1] : e[2]);
+    }
+    double guess = sqrt(area / (double)s->n);
+    return guess > 0 && isfinite(guess) ? guess : 1;
+}
+
 /* Nearest-neighbour distance of every sample point whose neighbour is
  * certain (within its window), sorted. */
 int preview_measure_spacing(panel *p, int threads, wpd_error *err)
@@ -115,21 +136,7 @@ int preview_measure_spacing(panel *p, int threads, wpd_error *err)
         rc = wpd_fail(err, WPD_E_MEMORY, "%s: out of memory measuring the spacing", p->path);
         goto done;
     }
-    double lo[3], hi[3];
-    wpd_point_bounds(s->xyz, NULL, s->n, lo, hi, threads);
-    double area = 1;
-    if (s->windowed) {
-        for (int k = 0; k < 2; k++)
-            area *= isinf(s->half[k]) ? hi[s->axis[k]] - lo[s->axis[k]] : 2 * s->half[k];
-        area *= WINDOWS_PER_AXIS * WINDOWS_PER_AXIS;
-    } else {
-        double e[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
-        qsort(e, 3, sizeof *e, preview_cmp_double);
-        area = e[2] * (e[1] > 0 ? e[1] : e[2]);
-    }
-    double guess = sqrt(area / (double)s->n);
-    if (!(guess > 0) || !isfinite(guess))
-        guess = 1;
+    double guess = spacing_guess(s, threads);
     if (wpd_grid_build_knn(&g, s->xyz, NULL, s->n, 1, guess, threads, err)) {
         rc = -1;
         goto done;

@@ -17,8 +17,9 @@
 /* x where ray r is at height z. */
 static inline double ray_x(const ray *r, double z) { return r->xa + (r->za - z) * r->s; }
 
-/* A surface point found by a ray. */
-typedef struct hit { double x, z; int material; double shade; } hit;
+/* A surface point found by a ray is an echo (synth_trace.h) until the
+ * crowns above it are known: it may become the last return or none. */
+typedef echo hit;
 
 /* Highest point where the ray meets the roof of b; 0 if it misses the roof. */
 static int roof_hit(const building *b, const ray *r, hit *h)
@@ -159,7 +160,7 @@ static int crown_echoes(rng *g, const ray *r, const hit *solid, double top, doub
         out[i] = (echo){ray_x(r, z), z, MAT_TREE, 1.0};
     }
     if (last_on_solid)
-        out[n - 1] = (echo){solid->x, solid->z, solid->material, solid->shade};
+        out[n - 1] = *solid;
     return n;
 }
 
@@ -182,7 +183,7 @@ static int trace_echoes(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS])
     double top, bottom;
     if (t && crown_chord(t, r, &top, &bottom) && top > solid.z + 0.5)
         return crown_echoes(g, r, &solid, top, bottom, out);
-    out[0] = (echo){solid.x, solid.z, solid.material, solid.shade};
+    out[0] = solid;
     return 1;
 }
 
