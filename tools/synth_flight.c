@@ -1,0 +1,108 @@
+/* synth_flight.c - plans `wpd synth`'s survey (see synth_flight.h): the
+ * swath and strip spacing from the scene's side, the flying height from
+ * the swath, the pulse spacing from the target count, and the per-step
+ * tables of the mirror's sweep.
+ */
+#include "synth_flight.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SCAN_HALF_ANGLE (22.0 * 3.14159265358979323846 / 180.0)
+#define SWATH_MIN 60.0          /* small scenes are low (UAV-like) surveys */
+#define SWATH_MAX 500.0
+#define SIDE_OVERLAP 0.30
+#define MIN_STRIPS 3
+#define GROUND_SPEED 60.0       /* m/s, nominal, for the widest swath */
+#define MIN_GROUND_SPEED 8.0
+
+void synth_flight_free(flight *f)
+{
+    free(f->tan_of), free(f->rank_of), free(f->gain_of), free(f->lo), free(f->hi), free(f->inside);
+    memset(f, 0, sizeof *f);
+}
+
+/* Strip geometry: swath, spacing and count from the scene's side (at
+ * least MIN_STRIPS, centred on the scene), the flying height from the
+ * swath and the scan angle. */
+static void plan_strips(flight *f, const scene *sc)
+{
+    double L = sc->side;
+    f->swath = clampd(L / (1 + (MIN_STRIPS - 1) * (1 - SIDE_OVERLAP)), SWATH_MIN, SWATH_MAX);
+    f->spacing = f->swath * (1 - SIDE_OVERLAP);
+    f->strips = (int)ceil((L - f->swath) / f->spacing - 1e-9) + 1;
+    if (f->strips < MIN_STRIPS)
+        f->strips = MIN_STRIPS;
+    f->first_centre = L / 2 - (f->strips - 1) * f->spacing / 2;
+    f->height = f->swath / 2 / tan(SCAN_HALF_ANGLE);
+    f->altitude = terrain(sc, L / 2, L / 2) + f->height;
+}
+
+/* Pulse spacing that gives `points` points over the scene area the strips
+ * see, the pulses per scan line and the time a line takes. */
+static void plan_pulses(flight *f, double L, uint64_t points)
+{
+    double covered = 0;
+    for (int i = 0; i < f->strips; i++) {
+        double c = strip_centre(f, i);
+        covered += max2(0, min2(L, c + f->swath / 2) - max2(0, c - f->swath / 2)) * L;
+    }
+    double pulses_per_m2 = (double)points / RETURNS_PRIOR / covered;
+    double step = 1 / sqrt(pulses_per_m2);
+    int m = (int)(f->swath / step + 0.5);
+    f->pulses_per_line = m < 2 ? 2 : m > 1000000 ? 1000000 : m;
+    f->line_spacing = step;
+    f->line_period = step / clampd(GROUND_SPEED * f->swath / SWATH_MAX, MIN_GROUND_SPEED, GROUND_SPEED);
+}
+
+/* The mirror's sweep: equal angular steps over -22 .. +22 degrees. */
+static void plan_sweep(flight *f)
+{
+    const int m = f->pulses_per_line;
+    for (int j = 0; j < m; j++) {
+        double a = SCAN_HALF_ANGLE * (2 * (j + 0.5) / m - 1);
+        f->tan_of[j] = tan(a);
+        f->rank_of[j] = (int8_t)lround(a * 180 / 3.14159265358979323846);
+        f->gain_of[j] = 0.6 + 0.4 * cos(a);
+    }
+}
+
+/* Steps whose nominal ground point is near the scene (traced: the terrain
+ * moves the actual one) and in it (the expected yield), per strip. */
+static void plan_strip_steps(flight *f, double L)
+{
+    const int m = f->pulses_per_line;
+    for (int i = 0; i < f->strips; i++) {
+        double c = strip_centre(f, i);
+        int lo = 0, hi = m, inside = 0;
+        while (lo < m && c + f->height * f->tan_of[lo] < -5.0)
+            lo++;
+        while (hi > lo && c + f->height * f->tan_of[hi - 1] > L + 5.0)
+            hi--;
+        for (int j = lo; j < hi; j++) {
+            double x = c + f->height * f->tan_of[j];
+            inside += x >= 0 && x <= L;
+        }
+        f->lo[i] = lo, f->hi[i] = hi, f->inside[i] = inside;
+    }
+}
+
+int synth_flight_plan(flight *f, const scene *sc, uint64_t points)
+{
+    memset(f, 0, sizeof *f);
+    plan_strips(f, sc);
+    plan_pulses(f, sc->side, points);
+    size_t m = (size_t)f->pulses_per_line, strips = (size_t)f->strips;
+    f->tan_of = malloc(m * sizeof *f->tan_of);
+    f->rank_of = malloc(m * sizeof *f->rank_of);
+    f->gain_of = malloc(m * sizeof *f->gain_of);
+    f->lo = malloc(strips * sizeof *f->lo);
+    f->hi = malloc(strips * sizeof *f->hi);
+    f->inside = malloc(strips * sizeof *f->inside);
+    if (!f->tan_of || !f->rank_of || !f->gain_of || !f->lo || !f->hi || !f->inside)
+        return -1;
+    plan_sweep(f);
+    plan_strip_steps(f, sc->side);
+    return 0;
+}

@@ -1,0 +1,40 @@
+/* synth_trace.h - where one pulse of `wpd synth`'s scanner meets the
+ * scene, and the echoes it returns: the first solid surface (ground, roof,
+ * wall), up to MAX_RETURNS returns through a tree crown, or now and then a
+ * single noise outlier. Implemented by synth_trace.c.
+ */
+#ifndef WPD_SYNTH_TRACE_H
+#define WPD_SYNTH_TRACE_H
+
+#include "synth_math.h"
+#include "synth_scene.h"
+
+#define MAX_RETURNS 5
+
+/* A pulse: a straight ray from the aircraft at (xa, y, za) leaning across
+ * track; descending by 1 m moves it s metres in x. */
+typedef struct ray { double xa, y, za, s; } ray;
+
+/* One return, in local coordinates, before the acquisition attributes. */
+typedef struct echo { double x, z; int material; double shade; } echo;
+
+/* Per-scan lookup state: caches of scene features (each lookup kind its
+ * own, so they do not evict each other) and the last ground height. */
+typedef struct tracer {
+    const scene *sc;
+    block_info blocks[3];        /* ground lot, roof-level lot, tree lookups */
+    building lots[2];            /* lot under the ground hit, lot at roof level */
+    tree trees[3];               /* two kerb directions, park */
+    double ground_guess;         /* ground height of the previous pulse */
+} tracer;
+
+/* A tracer for scene sc (which must outlive it), with empty caches. */
+void synth_tracer_init(tracer *tr, const scene *sc);
+
+/* Traces ray r, drawing from g; returns the number of echoes (1 ..
+ * MAX_RETURNS, written to out in return order), or 0 when one of them
+ * falls outside the scene square (the whole pulse is then not recorded, so
+ * the bounds are the scene's and every recorded pulse is complete). */
+int synth_trace_pulse(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS]);
+
+#endif
