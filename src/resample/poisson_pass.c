@@ -25,7 +25,6 @@
  * owner after each colour, so few points are left for a second round. */
 #include "resample/run.h"
 
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -358,6 +357,10 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
     pass_ctx *pc = arg;
     if (pc->round > 0 && pc->unknown[t].n == 0)
         return 0;
+    if (pc->round > 0) {
+#pragma omp atomic
+        run->res->resolution_tiles++;
+    }
     view v;
     int rc = -1;
     if (build_view(run, pc, t, threads, &v, err))
@@ -456,13 +459,6 @@ static int full_pass(wpd_run *run, pass_ctx *pc, size_t *count, wpd_error *err)
             if (wpd_run_each_tile(run, pc->round ? NULL : "poisson", certain_tile, hand_back, pc,
                                   err))
                 return -1;
-            if (getenv("WPD_DEBUG_ROUNDS")) {
-                int tiles = 0;
-                for (int t = 0; t < ntiles; t++)
-                    tiles += pc->unknown[t].n > 0;
-                fprintf(stderr, "round %d: %zu unknown in %d tiles\n", pc->round,
-                        unknown_count(run, pc), tiles);
-            }
         }
         run->res->resolution_rounds += pc->round - 1;
     }

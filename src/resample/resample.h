@@ -65,6 +65,7 @@ typedef struct wpd_resample_result {
     int passes, prune_passes; /* Poisson passes over the input; prunes of an overshoot */
     int resolution_rounds;    /* tile rounds re-run for points a tile's view could not
                                  decide (a chain of decisions past the halo) */
+    int resolution_tiles;     /* tiles those rounds re-ran */
     size_t open_cells, pulled_to_surface;
     uint64_t sharp_points;    /* input points labelled sharp */
     int in_memory;            /* 1: one tile held in memory, no spill */
