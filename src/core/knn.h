@@ -13,6 +13,13 @@
 #include "core/grid.h"
 
 #define WPD_KNN_MAX 64      /* largest k supported */
+
+/* k clamped into 3..WPD_KNN_MAX: a plane fit needs 3 points, the query
+ * buffers hold WPD_KNN_MAX. */
+static inline int wpd_knn_clamp_k(int k)
+{
+    return k < 3 ? 3 : k > WPD_KNN_MAX ? WPD_KNN_MAX : k;
+}
 #define WPD_NO_SELF UINT32_MAX
 
 /* The k (1..WPD_KNN_MAX) points of g nearest to q, skipping the point whose

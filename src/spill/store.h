@@ -109,7 +109,5 @@ void spill_stop_workers(wpd_spill *s);
 void spill_tile_path(const wpd_spill *s, int t, char *out, size_t len);
 int spill_tile_fd_locked(wpd_spill *s, int t, int *slot_out);
 void spill_close_files(wpd_spill *s);
-int spill_write_full(int fd, const uint8_t *p, size_t len, uint64_t off);
-int spill_read_full(int fd, uint8_t *p, size_t len, uint64_t off);
 
 #endif

@@ -19,23 +19,6 @@ void spill_tile_path(const wpd_spill *s, int t, char *out, size_t len)
     snprintf(out, len, "%s/tile-%06d", s->dir, t);
 }
 
-/* Writes len bytes at off; a short write without errno set is disk full. */
-int spill_write_full(int fd, const uint8_t *p, size_t len, uint64_t off)
-{
-    while (len) {
-        ssize_t w = pwrite(fd, p, len, (off_t)off);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            if (w == 0)
-                errno = ENOSPC;
-            return -1;
-        }
-        p += w, len -= (size_t)w, off += (uint64_t)w;
-    }
-    return 0;
-}
-
 /* An open descriptor for writing tile t, pinned (not closed by another
  * thread until unpinned): cached, or opened in the least recently used
  * unpinned slot (at most MAX_OPEN_FILES stay open). *slot is -1 for a
@@ -89,22 +72,5 @@ void spill_close_files(wpd_spill *s)
             s->tiles[s->open_files[k].tile].fd_slot = -1;
             s->open_files[k].fd = -1;
         }
-}
-
-/* Reads len bytes at off; fewer (end of file) is -1 with errno 0. */
-int spill_read_full(int fd, uint8_t *p, size_t len, uint64_t off)
-{
-    while (len) {
-        ssize_t r = pread(fd, p, len, (off_t)off);
-        if (r < 0 && errno == EINTR)
-            continue;
-        if (r <= 0) {
-            if (r == 0)
-                errno = 0;
-            return -1;
-        }
-        p += r, len -= (size_t)r, off += (uint64_t)r;
-    }
-    return 0;
 }
 

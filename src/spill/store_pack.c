@@ -8,6 +8,7 @@
  * from a queue; with 0 the appending thread compresses itself. A thread
  * needs about 2.5 buffer_bytes of scratch and a zstd context.
  */
+#include "common/fullio.h"
 #include "spill/store.h"
 
 #include <errno.h>
@@ -81,7 +82,7 @@ static void write_chunk(wpd_spill *s, const job *j, const uint8_t *data, const c
     pthread_mutex_unlock(&s->mu);
 
     double t0 = now_seconds();
-    int failed = fd < 0 || spill_write_full(fd, data, len, off);
+    int failed = fd < 0 || wpd_pwrite_full(fd, data, len, off);
     int saved = errno;
     double t1 = now_seconds();
 

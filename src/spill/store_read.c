@@ -7,6 +7,7 @@
  * for, the record frame. Reads of different tiles, or of the same tile,
  * share nothing but the read-only index, so they can run on any threads.
  */
+#include "common/fullio.h"
 #include "spill/store.h"
 
 #include <errno.h>
@@ -64,8 +65,9 @@ static int read_chunk(const wpd_spill *s, int t, uint32_t k, int fd, const char 
 {
     const chunk_ref *c = &s->tiles[t].chunks[k];
     size_t len = sizeof(chunk_head) + c->coord_z + (with_records ? c->rec_z : 0);
-    if (spill_read_full(fd, r->file, len, c->off)) {
-        if (errno)
+    ssize_t read_bytes = wpd_pread_full(fd, r->file, len, c->off);
+    if (read_bytes != (ssize_t)len) {
+        if (read_bytes < 0)
             return wpd_fail_errno(err, "%s: cannot read spill chunk %u", path, k);
         return wpd_fail(err, WPD_E_IO, "%s: spill file truncated: chunk %u at byte %llu "
                         "needs %zu bytes", path, k, (unsigned long long)c->off, len);

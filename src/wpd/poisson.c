@@ -138,9 +138,12 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
     return UINT32_MAX;
 }
 
-/* Decides slot s and whatever it depends on. Returns 0, or -1 if out of
- * memory. */
-static int resolve(pass_state *ps, uint32_t s)
+static uint32_t try_decide(pass_state *ps, uint32_t t);
+
+/* Decides slot s and whatever it depends on, with the two-valued
+ * (try_accept) or the three-valued rules (try_decide). Returns 0, or -1 if
+ * out of memory. */
+static int resolve(pass_state *ps, uint32_t s, int certain)
 {
     size_t top = 0;
     ps->stack[top++] = s;
@@ -150,8 +153,8 @@ static int resolve(pass_state *ps, uint32_t s)
             top--;
             continue;
         }
-        double rt = ps->half && ps->half[t] ? 0.5 * ps->r : ps->r;
-        uint32_t blocker = try_accept(ps, t, rt);
+        double rt = !certain && ps->half && ps->half[t] ? 0.5 * ps->r : ps->r;
+        uint32_t blocker = certain ? try_decide(ps, t) : try_accept(ps, t, rt);
         if (blocker == UINT32_MAX) {
             top--;
             continue;
@@ -274,31 +277,6 @@ static uint32_t try_decide(pass_state *ps, uint32_t t)
         }
     }
     return UINT32_MAX;
-}
-
-/* resolve() for the three-valued pass. */
-static int resolve_certain(pass_state *ps, uint32_t s)
-{
-    size_t top = 0;
-    ps->stack[top++] = s;
-    while (top > 0) {
-        uint32_t t = ps->stack[top - 1];
-        if ((ps->state[t] & STATUS_MASK) != UNDECIDED) {
-            top--;
-            continue;
-        }
-        uint32_t blocker = try_decide(ps, t);
-        if (blocker == UINT32_MAX) {
-            top--;
-            continue;
-        }
-        if (blocker == UINT32_MAX - 1)
-            return -1;
-        if (top == ps->stack_cap && grow(&ps->stack, &ps->stack_cap) < 0)
-            return -1;
-        ps->stack[top++] = blocker;
-    }
-    return 0;
 }
 
 static int cmp_u32(const void *a, const void *b)
@@ -462,11 +440,11 @@ static long run_pass(wpd_poisson *ps, double r, int certain, uint32_t *out, uint
         for (size_t i = 0; i < n && !failed; i++)
             if ((ps->state[ps->order[i]] & STATUS_MASK) == UNDECIDED &&
                 !(ps->kind[ps->order[i]] & KIND_LAZY))
-                failed = resolve_certain(&st, ps->order[i]) < 0;
+                failed = resolve(&st, ps->order[i], 1) < 0;
     } else {
         for (size_t i = 0; i < n && !failed; i++)
             if ((ps->state[ps->order[i]] & STATUS_MASK) == UNDECIDED)
-                failed = resolve(&st, ps->order[i]) < 0;
+                failed = resolve(&st, ps->order[i], 0) < 0;
     }
     ps->stack = st.stack;
     ps->stack_cap = st.stack_cap;

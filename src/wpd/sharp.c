@@ -13,10 +13,7 @@ void wpd_detect_sharp(const wpd_grid *surface, size_t n, int k, double threshold
 {
     if (threads <= 0)
         threads = omp_get_max_threads();
-    if (k < 3)
-        k = 3;
-    if (k > WPD_KNN_MAX)
-        k = WPD_KNN_MAX;
+    k = wpd_knn_clamp_k(k);
     /* Visit slots (cell order, cache friendly) and write by source index. */
     size_t slots = surface->n;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
@@ -135,10 +132,7 @@ void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, 
 {
     if (threads <= 0)
         threads = omp_get_max_threads();
-    if (k < 3)
-        k = 3;
-    if (k > WPD_KNN_MAX)
-        k = WPD_KNN_MAX;
+    k = wpd_knn_clamp_k(k);
     size_t slots = surface->n;
     /* Each label is computed on its own from its neighbourhood: any
      * schedule gives the same labels. */

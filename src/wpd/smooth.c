@@ -432,10 +432,7 @@ void wpd_measure_drift(const wpd_grid *surface, const double *xyz, size_t n, int
         return;
     if (threads <= 0)
         threads = omp_get_max_threads();
-    if (k < 3)
-        k = 3;
-    if (k > WPD_KNN_MAX)
-        k = WPD_KNN_MAX;
+    k = wpd_knn_clamp_k(k);
     double *r_near = malloc(n * sizeof *r_near), *r_plane = malloc(n * sizeof *r_plane);
     if (!r_near || !r_plane) {
         free(r_near);
