@@ -245,8 +245,12 @@ static int setup(pass_state *s, wpd_error *err)
     s->unit = s->lanes[0].batch.cap;
     if (plan_units(s))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for reading");
+    /* Each lane's reader of the first file is opened here, before any
+     * point is read: a file that shrinks while it is read then fails as
+     * "ends after" in the reads, never in a late lane's header. */
     for (int l = 0; l < p->threads; l++)
-        if (!(s->lanes[l].cloud = wpd_cloud_reopen(p->cloud, err)))
+        if (!(s->lanes[l].cloud = wpd_cloud_reopen(p->cloud, err)) ||
+            wpd_cloud_seek_stretch(s->lanes[l].cloud, 0, 0, err))
             return -1;
     return 0;
 }
