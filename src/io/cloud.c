@@ -13,6 +13,8 @@ struct wpd_cloud {
     wpd_reader *reader;       /* open reader of file `current`, or NULL */
     uint64_t dropped_closed;  /* dropped points of files already finished */
     uint64_t *delivered;      /* [nfiles] points returned per file since rewind */
+    int all_seek;             /* every file's reader can seek */
+    int bounded;              /* reads stop at the end of a stretch (wpd_cloud_seek_stretch) */
 };
 
 /* Two dimensions agree if everything but a coordinate's scale/offset does. */
@@ -55,10 +57,14 @@ wpd_cloud *wpd_cloud_open(const char *const *paths, int n, wpd_error *err)
         wpd_fail(err, WPD_E_MEMORY, "out of memory opening %d inputs", n);
         return NULL;
     }
+    c->all_seek = 1;
     for (int i = 0; i < n; i++) {
         wpd_reader *r = wpd_reader_open(paths[i], err);
         if (!r)
             goto fail;
+        /* The reader knows (the header alone does not say for PLY whose
+         * vertices follow elements with lists) and is open here anyway. */
+        c->all_seek &= wpd_reader_can_seek(r);
         int rc = wpd_header_copy(&c->headers[i], wpd_reader_header(r));
         wpd_reader_close(r);
         c->nfiles = i + 1;
@@ -147,6 +153,8 @@ long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err)
                 c->delivered[c->current] += (uint64_t)got;
             return got;
         }
+        if (c->bounded) /* the stretch ends here, not the file */
+            break;
         close_current(c);
         c->current++;
     }
@@ -183,10 +191,41 @@ int wpd_cloud_seek(wpd_cloud *c, uint64_t index, wpd_error *err)
     return wpd_reader_seek(c->reader, index, err);
 }
 
+int wpd_cloud_can_seek(const wpd_cloud *c) { return c->all_seek; }
+
+int wpd_cloud_seek_stretch(wpd_cloud *c, uint64_t index, uint64_t count, wpd_error *err)
+{
+    int f = 0;
+    while (f < c->nfiles && index >= c->headers[f].point_count)
+        index -= c->headers[f++].point_count;
+    c->bounded = 1;
+    if (f != c->current)
+        close_current(c); /* its dropped points are counted on */
+    c->current = f;
+    if (f == c->nfiles)
+        return 0; /* at the end: reads return 0 */
+    if (!c->reader && !(c->reader = wpd_reader_open(c->headers[f].path, err)))
+        return -1;
+    if (!wpd_reader_can_seek(c->reader))
+        return wpd_fail(err, WPD_E_USAGE, "%s: records of this format cannot be positioned",
+                        c->headers[f].path);
+    uint64_t end = count < c->headers[f].point_count - index ? index + count
+                                                             : c->headers[f].point_count;
+    return wpd_reader_seek_range(c->reader, index, end, err);
+}
+
+void wpd_cloud_add_counts(wpd_cloud *c, const wpd_cloud *from)
+{
+    for (int i = 0; i < c->nfiles && i < from->nfiles; i++)
+        c->delivered[i] += from->delivered[i];
+    c->dropped_closed += wpd_cloud_dropped(from);
+}
+
 int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err)
 {
     (void)err;
     close_current(c);
+    c->bounded = 0;
     c->current = 0;
     c->dropped_closed = 0;
     memset(c->delivered, 0, (size_t)c->nfiles * sizeof *c->delivered);

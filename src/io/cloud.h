@@ -45,6 +45,26 @@ wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err);
  * cannot be positioned: ASCII PLY). */
 int wpd_cloud_seek(wpd_cloud *c, uint64_t index, wpd_error *err);
 
+/* 1 when every file's records can be positioned (wpd_cloud_seek_stretch
+ * works anywhere), else 0 (ASCII PLY, PLY vertices with lists). */
+int wpd_cloud_can_seek(const wpd_cloud *c);
+
+/* Positions c at record `index` (counted over all files) and bounds its
+ * reads to the stretch of at most `count` records from there that lies in
+ * index's file: wpd_cloud_read then delivers the finite points of that
+ * stretch and returns 0 at its end (until the next seek or rewind). For
+ * reading a cloud in units of records on several threads. Unlike
+ * wpd_cloud_seek, the counts (wpd_cloud_delivered, wpd_cloud_dropped) are
+ * kept: a cloud that reads many stretches has counted all of them; the
+ * file's reader stays open from one stretch to the next in the same file.
+ * Returns 0, or -1 with err set (WPD_E_USAGE when that file cannot seek). */
+int wpd_cloud_seek_stretch(wpd_cloud *c, uint64_t index, uint64_t count, wpd_error *err);
+
+/* Adds the counts of `from` (a wpd_cloud_reopen of c, or of the same
+ * files) to c's: delivered points per file and dropped points. Lets a pass
+ * that read through clouds of its own leave c counting what was read. */
+void wpd_cloud_add_counts(wpd_cloud *c, const wpd_cloud *from);
+
 /* Restarts reading at the first point of the first file. */
 int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err);
 /* Points of file i delivered since the last rewind (finite points only). */

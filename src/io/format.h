@@ -9,7 +9,8 @@
 #include "io/writer.h"
 
 typedef struct wpd_reader_ops {
-    /* Same contract as wpd_reader_read; r->dropped must be maintained. */
+    /* Same contract as wpd_reader_read; r->dropped must be maintained and
+     * no record at or past r->end read. */
     long (*read)(wpd_reader *r, wpd_batch *b, wpd_error *err);
     /* NULL when the format cannot seek. Same contract as wpd_reader_seek. */
     int (*seek)(wpd_reader *r, uint64_t index, wpd_error *err);
@@ -22,6 +23,8 @@ struct wpd_reader {
     int fd;                 /* open read-only on hdr.path */
     wpd_header hdr;
     uint64_t dropped;
+    uint64_t end;           /* reads stop before this record (the point count
+                               unless wpd_reader_seek_range bounded them) */
     void *impl;             /* format state */
 };
 

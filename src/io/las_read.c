@@ -654,8 +654,8 @@ static long las_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
     if (!b->cap)
         return wpd_fail(err, WPD_E_USAGE, "%s: read into a batch without room", r->hdr.path);
     /* Loop until something is kept, so that 0 means only "end of points". */
-    while (kept == 0 && L->next < r->hdr.point_count) {
-        uint64_t left = r->hdr.point_count - L->next;
+    while (kept == 0 && L->next < r->end) {
+        uint64_t left = r->end - L->next;
         size_t want = b->cap < left ? b->cap : (size_t)left;
         for (size_t done = 0; done < want;) {
             size_t n = want - done < block ? want - done : block;

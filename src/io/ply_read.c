@@ -384,12 +384,13 @@ static long ply_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
         return -1;
     const size_t rs = pr->record_size;
     const size_t chunk = PLY_CHUNK_BYTES / rs ? PLY_CHUNK_BYTES / rs : 1;
-    while (b->n < b->cap && pr->next < pr->count) {
+    const uint64_t end = r->end < pr->count ? r->end : pr->count;
+    while (b->n < b->cap && pr->next < end) {
         size_t n = b->cap - b->n;
         if (n > chunk)
             n = chunk;
-        if (n > pr->count - pr->next)
-            n = (size_t)(pr->count - pr->next);
+        if (n > end - pr->next)
+            n = (size_t)(end - pr->next);
         uint8_t *rec = b->records + b->n * rs;
         int rc = pr->fixed ? read_fixed(r, pr, rec, n, err)
                  : pr->enc == WPD_PLY_ASCII ? read_ascii_items(r, pr, rec, n, err)

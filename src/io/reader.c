@@ -56,8 +56,10 @@ wpd_reader *wpd_reader_open(const char *path, wpd_error *err)
         goto fail;
     int rc = r->hdr.format == WPD_FMT_LAS ? wpd_las_open_reader(r, err)
                                           : wpd_ply_open_reader(r, err);
-    if (rc == 0)
+    if (rc == 0) {
+        r->end = r->hdr.point_count;
         return r;
+    }
 fail:
     wpd_reader_close(r);
     return NULL;
@@ -84,7 +86,18 @@ int wpd_reader_seek(wpd_reader *r, uint64_t index, wpd_error *err)
         return wpd_fail(err, WPD_E_USAGE, "%s: point index %llu past the end (%llu points)",
                         r->hdr.path, (unsigned long long)index,
                         (unsigned long long)r->hdr.point_count);
-    return r->ops->seek(r, index, err);
+    if (r->ops->seek(r, index, err))
+        return -1;
+    r->end = r->hdr.point_count;
+    return 0;
+}
+
+int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error *err)
+{
+    if (wpd_reader_seek(r, index, err))
+        return -1;
+    r->end = end < index ? index : end < r->hdr.point_count ? end : r->hdr.point_count;
+    return 0;
 }
 
 uint64_t wpd_reader_dropped(const wpd_reader *r) { return r->dropped; }

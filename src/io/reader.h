@@ -37,6 +37,13 @@ int wpd_reader_can_seek(const wpd_reader *r);
  * Returns 0, or -1 with err set. */
 int wpd_reader_seek(wpd_reader *r, uint64_t index, wpd_error *err);
 
+/* As wpd_reader_seek, and reads stop before record end (clamped to
+ * [index, point count]): they return 0 there, so a batch never runs past
+ * it even when points are dropped (a read fills its batch with finite
+ * points and would otherwise take records beyond). The bound holds until
+ * the next seek. */
+int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error *err);
+
 /* Number of records dropped so far for non-finite coordinates. */
 uint64_t wpd_reader_dropped(const wpd_reader *r);
 

@@ -5,91 +5,99 @@
  * figures). */
 #include "resample/run.h"
 
-#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "resample/budget.h"
+#include "resample/pass.h"
 
-/* Copies the records of samples [lo, hi) (sorted by global index) from
- * cloud, which delivers the points from global index `first` on. */
-static int copy_records(wpd_run *e, wpd_cloud *cloud, size_t lo, size_t hi, uint64_t first,
-                        wpd_error *err)
+typedef struct gather {
+    wpd_run *e;
+    size_t next;              /* ordered: the first sample not copied yet */
+    size_t *copied;           /* [lanes] samples each lane copied */
+} gather;
+
+/* Copies the records of the samples from `from` on that lie in the batch
+ * (its first point has global index first); returns the next sample. */
+static size_t copy_batch(wpd_run *e, const wpd_batch *b, uint64_t first, size_t from)
 {
     wpd_resample_result *res = e->res;
-    size_t rs = e->record_size;
-    wpd_batch b;
-    if (wpd_batch_init(&b, WPD_BATCH_POINTS, e->record_size))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu records", res->count);
-    size_t next = lo;
-    long got = 0;
-    while (next < hi && (got = wpd_cloud_read(cloud, &b, NULL, err)) > 0) {
-        for (; next < hi && res->gid[next] < first + b.n; next++)
-            memcpy(res->records + next * rs, b.records + (res->gid[next] - first) * rs, rs);
-        first += b.n;
-        wpd_progress_add(e->opt->progress, b.n);
+    size_t rs = e->record_size, i = from;
+    for (; i < res->count && res->gid[i] < first + b->n; i++)
+        memcpy(res->records + i * rs, b->records + (res->gid[i] - first) * rs, rs);
+    return i;
+}
+
+/* The first sample with a global index >= gid. */
+static size_t first_sample_from(const wpd_resample_result *res, uint64_t gid)
+{
+    size_t lo = 0, hi = res->count;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (res->gid[mid] < gid)
+            lo = mid + 1;
+        else
+            hi = mid;
     }
-    wpd_batch_free(&b);
-    if (next < hi)
-        return got < 0 ? -1
-                       : wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
-                                  wpd_cloud_header(cloud, 0)->path);
+    return lo;
+}
+
+/* Unordered: each lane copies its batches' samples into their own slots
+ * (the global indices are known in the lanes, see wpd_records_phase). */
+static int copy_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
+{
+    (void)err;
+    gather *g = arg;
+    size_t from = first_sample_from(g->e->res, pb->first_gid);
+    g->copied[pb->lane] += copy_batch(g->e, pb->batch, pb->first_gid, from) - from;
     return 0;
 }
 
-/* Each thread reads the stretch of the inputs that holds its share of the
- * samples, with a cloud of its own positioned there: possible when every
- * record is a point (global index = record index) and the format can
- * seek. Returns 0, -1 with err set, or 1 when it cannot (nothing done). */
-static int gather_records_parallel(wpd_run *e, wpd_error *err)
+/* Ordered: the commits copy, in reading order, where the global indices
+ * are exact. */
+static int copy_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
-    wpd_resample_result *res = e->res;
-    size_t batch_bytes = wpd_budget_batch_bytes(e->record_size);
-    int threads = wpd_budget_pass_threads(e->opt->mem_bytes, e->threads,
-                                          wpd_budget_samples_bytes(e->opt->target, e->record_size),
-                                          batch_bytes);
-    if (threads < 2 || res->count < 2 || e->scan.count != wpd_cloud_count(e->cloud))
-        return 1;
-    _Atomic int unseekable = 0;
-    wpd_first_error fe = {0};
-#pragma omp parallel num_threads(threads)
-    {
-        int t = omp_get_thread_num(), nt = omp_get_num_threads();
-        size_t lo = res->count * (size_t)t / (size_t)nt;
-        size_t hi = res->count * (size_t)(t + 1) / (size_t)nt;
-        wpd_error mine = {0};
-        wpd_cloud *c = lo < hi ? wpd_cloud_reopen(e->cloud, &mine) : NULL;
-        int rc = lo < hi ? (c ? 0 : -1) : 0;
-        if (rc == 0 && c && wpd_cloud_seek(c, res->gid[lo], &mine))
-            rc = mine.code == WPD_E_USAGE ? 1 : -1;
-        if (rc == 0 && c)
-            rc = copy_records(e, c, lo, hi, res->gid[lo], &mine);
-        wpd_cloud_close(c);
-        if (rc == 1)
-            unseekable = 1;
-        else if (rc)
-            wpd_first_error_keep(&fe, &mine);
-    }
-    if (wpd_first_error_take(&fe, err))
-        return -1;
-    return unseekable ? 1 : 0;
+    (void)err;
+    gather *g = arg;
+    size_t from = g->next;
+    g->next = copy_batch(g->e, pb->batch, pb->first_gid, from);
+    g->copied[pb->lane] += g->next - from;
+    return 0;
 }
 
-/* The records of the samples, from a last streaming pass over the inputs:
- * the samples are sorted by global index, which is the reading order. The
- * tiles hold coordinates only - the records, half the spilled bytes, are
- * needed for the kept 1 % alone (docs/engine.md has the figures). */
+/* The records of the samples. Where no point was dropped, global index =
+ * record index: every lane knows the indices of its batches and copies on
+ * its own, and the pass stops at the last sample's record. Otherwise the
+ * indices are exact only in reading order: the pass is ordered and the
+ * commits copy (reading and decoding, the work, still run in parallel). */
 int wpd_records_phase(wpd_run *e, wpd_error *err)
 {
     wpd_resample_result *res = e->res;
     res->records = malloc((res->count ? res->count : 1) * e->record_size);
     if (!res->records)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu records", res->count);
-    int rc = gather_records_parallel(e, err);
-    if (rc != 1)
-        return rc;
-    if (wpd_cloud_rewind(e->cloud, err))
-        return -1;
-    return copy_records(e, e->cloud, 0, res->count, 0, err);
+    if (res->count == 0)
+        return 0;
+    int every_finite = e->scan.count == wpd_cloud_count(e->cloud);
+    int threads = wpd_budget_pass_threads(e->opt->mem_bytes, e->threads,
+                                          wpd_budget_samples_bytes(e->opt->target, e->record_size),
+                                          wpd_pass_lane_bytes(e->cloud));
+    gather g = {e, 0, calloc((size_t)threads, sizeof(size_t))};
+    if (!g.copied)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu records", res->count);
+    wpd_pass pass = {.cloud = e->cloud, .threads = threads,
+                     .end = every_finite ? res->gid[res->count - 1] + 1 : 0,
+                     .every_record_finite = every_finite,
+                     .lane = every_finite ? copy_lane : NULL,
+                     .commit = every_finite ? NULL : copy_commit, .arg = &g,
+                     .progress = e->opt->progress};
+    int rc = wpd_pass_run(&pass, err);
+    size_t copied = 0;
+    for (int l = 0; l < threads; l++)
+        copied += g.copied[l];
+    free(g.copied);
+    if (rc == 0 && copied != res->count)
+        rc = wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                      wpd_cloud_header(e->cloud, 0)->path);
+    return rc;
 }
-

@@ -7,17 +7,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "resample/pass.h"
 #include "wpd/ladder.h"
 
 /* Both passes compute sums and sets, which do not depend on the order of
- * the points: each thread reads whole batches in turn (the read itself is
- * serial, under a lock) and counts them into its own counter while the
- * other threads read, so reading overlaps counting without a thread per
- * batch join, which stalls whenever a thread of the team is descheduled. */
+ * the points nor on which thread counts which: an unordered pass (pass.h)
+ * in which each lane counts its batches into a counter of its own. */
 
-/* What one thread has counted; combined at the end of the pass. */
+/* What one lane has counted; combined at the end of the pass. */
 typedef struct counter {
-    wpd_batch batch;
     wpd_bounds box;
     uint64_t *file_count;     /* [nfiles] */
     wpd_ladder ladder;        /* scan pass only */
@@ -29,7 +27,6 @@ typedef struct counter {
 static void counters_free(counter *c, int threads)
 {
     for (int t = 0; c && t < threads; t++) {
-        wpd_batch_free(&c[t].batch);
         free(c[t].file_count);
         wpd_ladder_free(&c[t].ladder);
         free(c[t].density);
@@ -70,12 +67,10 @@ static counter *counters_new(wpd_cloud *cloud, const wpd_scan *scan, size_t voxe
                              int threads, size_t cells)
 {
     counter *c = calloc((size_t)threads, sizeof *c);
-    uint32_t rs = wpd_cloud_header(cloud, 0)->schema.record_size;
     int ok = c != NULL;
     for (int t = 0; ok && t < threads; t++) {
         wpd_bounds_reset(&c[t].box);
-        ok = wpd_batch_init(&c[t].batch, WPD_BATCH_POINTS, rs) == 0 &&
-             (c[t].file_count = calloc((size_t)wpd_cloud_nfiles(cloud), sizeof(uint64_t)));
+        ok = (c[t].file_count = calloc((size_t)wpd_cloud_nfiles(cloud), sizeof(uint64_t))) != NULL;
         if (ok && scan)
             ok = wpd_ladder_init(&c[t].ladder, scan->extent, scan->count, voxel_cap) == 0 &&
                  (c[t].density = calloc(cells, sizeof *c[t].density)) &&
@@ -88,9 +83,8 @@ static counter *counters_new(wpd_cloud *cloud, const wpd_scan *scan, size_t voxe
     return c;
 }
 
-static void count_batch(const wpd_scan *s, counter *c)
+static void count_batch(const wpd_scan *s, counter *c, const wpd_batch *b)
 {
-    const wpd_batch *b = &c->batch;
     for (size_t i = 0; i < b->n && !c->failed; i++) {
         double p[3];
         /* Clamped into the box: a header box that turns out to be off
@@ -106,48 +100,37 @@ static void count_batch(const wpd_scan *s, counter *c)
     }
 }
 
-/* Streams the cloud once on `threads` threads into the counters: bounds
- * and points per file, and with scan != NULL the voxels and the density.
+typedef struct count_job {
+    const wpd_scan *scan;     /* NULL: the bounds pass */
+    counter *c;               /* [lanes] */
+} count_job;
+
+static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
+{
+    count_job *job = arg;
+    /* A private copy while counting: the counters of all lanes share cache
+     * lines. */
+    counter mine = job->c[pb->lane];
+    wpd_bounds_add(&mine.box, pb->batch->xyz, pb->batch->n);
+    mine.file_count[pb->file] += pb->batch->n;
+    if (job->scan)
+        count_batch(job->scan, &mine, pb->batch);
+    job->c[pb->lane] = mine;
+    if (mine.failed)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
+    return 0;
+}
+
+/* Streams the cloud once on `threads` lanes into the counters: bounds and
+ * points per file, and with scan != NULL the voxels and the density.
  * Returns 0, or -1 with err set (read error, or memory for the ladder). */
 static int count_cloud(wpd_cloud *cloud, const wpd_scan *scan, counter *c, int threads,
                        wpd_progress *pg, wpd_error *err)
 {
-    if (wpd_cloud_rewind(cloud, err))
-        return -1;
-    int stop = 0, failed = 0;
-#pragma omp parallel num_threads(threads)
-    {
-        /* A private copy: the counters of all threads share cache lines. */
-        counter mine = c[omp_get_thread_num()];
-        for (;;) {
-            long got;
-            int file = 0;
-#pragma omp critical(wpd_scan_read)
-            {
-                got = stop ? 0 : wpd_cloud_read(cloud, &mine.batch, &file, err);
-                if (got <= 0)
-                    stop = 1;
-                if (got < 0)
-                    failed = 1;
-            }
-            if (got <= 0)
-                break;
-            wpd_bounds_add(&mine.box, mine.batch.xyz, mine.batch.n);
-            mine.file_count[file] += mine.batch.n;
-            if (scan)
-                count_batch(scan, &mine);
-            wpd_progress_add(pg, mine.batch.n);
-            if (mine.failed) {
-#pragma omp critical(wpd_scan_read)
-                stop = 1;
-            }
-        }
-        c[omp_get_thread_num()] = mine;
-    }
-    for (int t = 0; t < threads; t++)
-        if (c[t].failed && !failed)
-            failed = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
-    return failed ? -1 : 0;
+    count_job job = {scan, c};
+    wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &job,
+                     .progress = pg};
+    return wpd_pass_run(&pass, err);
 }
 
 /* The actual box and points per file of what the counters saw. */
@@ -167,16 +150,11 @@ static void sum_counters(const counter *c, int threads, int nfiles, wpd_bounds *
     }
 }
 
-static size_t batch_bytes(const wpd_cloud *cloud)
-{
-    return wpd_budget_batch_bytes(wpd_cloud_header(cloud, 0)->schema.record_size);
-}
-
 /* Pass 1 when the headers declare no usable box: the actual one. */
 static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, int threads, size_t room,
                        wpd_progress *pg, wpd_bounds *box, wpd_error *err)
 {
-    threads = wpd_threads_within(threads, room, batch_bytes(cloud));
+    threads = wpd_threads_within(threads, room, wpd_pass_lane_bytes(cloud));
     counter *c = counters_new(cloud, NULL, 0, threads, 0);
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
@@ -238,9 +216,9 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
 {
     init_grid(s);
     size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
-    /* A thread's own: its ladder (up to 32 bytes a key while coarsening),
-     * density grid and batch. */
-    size_t per_thread = 32 * voxel_cap + cells * sizeof *s->density + batch_bytes(cloud);
+    /* A lane's own: its ladder (up to 32 bytes a key while coarsening),
+     * density grid, batch and cloud. */
+    size_t per_thread = 32 * voxel_cap + cells * sizeof *s->density + wpd_pass_lane_bytes(cloud);
     threads = wpd_threads_within(threads, room, per_thread);
     free(s->density);
     s->density = calloc(cells, sizeof *s->density);

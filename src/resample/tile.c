@@ -1,15 +1,14 @@
 /* tile.c - the tile pass: every point to its home tile and, within the
  * halo, to its neighbours (routing), on every thread, appended in reading
- * order (the ordered parallel tiler). */
+ * order (an ordered pass, pass.h). */
 #include "resample/run.h"
 
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "common/testhook.h"
 #include "resample/budget.h"
-
+#include "resample/pass.h"
 
 /* Whether p, inside t's box, is at least m from each of its faces. */
 static int deep_inside(const wpd_tile *t, const double p[3], double m)
@@ -131,160 +130,91 @@ static int append_groups(wpd_run *e, const routing *r, wpd_error *err)
     return 0;
 }
 
-/* The tile pass runs on every thread: each takes the next batch (reading
- * is serial, under a lock), converts and routes it on its own, then waits
- * for its turn to append: batches reach the spill in reading order, so
- * every tile holds its points in global-index order, whatever the threads.
- * Routing one batch overlaps reading and appending the others. */
-typedef struct tiler {
-    wpd_run *e;
-    pthread_mutex_t mu;
-    pthread_cond_t turn;      /* next_append moved on */
-    uint64_t next_read;       /* sequence number of the next batch read */
-    uint64_t next_append;     /* sequence number whose turn it is to append */
-    uint64_t next_gid;        /* global index of the next point read */
-    int stop;                 /* end of input, or a failure */
-    int failed;
-    wpd_error err;            /* the first failure */
-} tiler;
+/* The tile pass is an ordered pass (pass.h): each lane converts, routes
+ * and groups a batch on its own, in parallel; the commits append the
+ * groups to the tiles in reading order, so every tile holds its points in
+ * global-index order, whatever the threads. */
 
-/* One thread's buffers. */
+/* One lane's buffers. */
 typedef struct tiler_lane {
-    wpd_batch batch;
-    double *fxyz;
+    double *fxyz;             /* the batch in frame coordinates */
     routing r;
 } tiler_lane;
 
+typedef struct tiler {
+    wpd_run *e;
+    tiler_lane *lanes;        /* [lanes] */
+} tiler;
 
 static int lane_init(tiler_lane *l, const wpd_run *e)
 {
     memset(l, 0, sizeof *l);
     l->fxyz = malloc(3 * WPD_BATCH_POINTS * sizeof *l->fxyz);
     /* Halo copies: a point lands in at most a few tiles; grow on demand. */
-    return l->fxyz && wpd_batch_init(&l->batch, WPD_BATCH_POINTS, e->record_size) == 0 &&
-                   routing_reserve(&l->r, 2 * WPD_BATCH_POINTS, e->plan.ntiles) == 0
-               ? 0
-               : -1;
+    return l->fxyz && routing_reserve(&l->r, 2 * WPD_BATCH_POINTS, e->plan.ntiles) == 0 ? 0
+                                                                                        : -1;
 }
 
 static void lane_free(tiler_lane *l)
 {
-    wpd_batch_free(&l->batch);
     routing_free(&l->r);
     free(l->fxyz);
 }
 
-static void tiler_fail(tiler *tl, const wpd_error *err)
+/* Converts to frame coordinates, routes and groups the batch. Global
+ * indices are counted from the batch's first point: with parallel reading
+ * its own is only known at the commit. */
+static int tile_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
-    pthread_mutex_lock(&tl->mu);
-    if (!tl->failed)
-        tl->err = *err;
-    tl->failed = tl->stop = 1;
-    pthread_mutex_unlock(&tl->mu);
-}
-
-/* Reads the next batch into l; sets its sequence number and first global
- * index. Returns the points read, 0 at the end or after a failure. */
-static long lane_read(tiler *tl, tiler_lane *l, uint64_t *seq, uint64_t *first_gid)
-{
-    long got = 0;
-    wpd_error err = {0};
-    pthread_mutex_lock(&tl->mu);
-    if (!tl->stop) {
-        got = wpd_cloud_read(tl->e->cloud, &l->batch, NULL, &err);
-        *seq = tl->next_read++;
-        *first_gid = tl->next_gid;
-        if (got > 0)
-            tl->next_gid += (uint64_t)got;
-        else
-            tl->stop = 1;
-    }
-    pthread_mutex_unlock(&tl->mu);
-    if (got < 0) {
-        tiler_fail(tl, &err);
-        return 0;
-    }
-    return got;
-}
-
-/* Converts to frame coordinates, routes and groups the batch in l. */
-static int lane_route(const wpd_run *e, tiler_lane *l, uint64_t first_gid)
-{
-    const wpd_batch *b = &l->batch;
+    tiler *tl = arg;
+    const wpd_run *e = tl->e;
+    tiler_lane *l = &tl->lanes[pb->lane];
+    const wpd_batch *b = pb->batch;
     for (size_t i = 0; i < b->n; i++)
         for (int a = 0; a < 3; a++)
             l->fxyz[3 * i + a] = b->xyz[3 * i + a] - e->scan.origin[a];
     while (route_batch(e, l->fxyz, b->n, &l->r))
         if (routing_reserve(&l->r, 2 * l->r.cap, e->plan.ntiles))
-            return -1;
-    group_by_tile(&l->r, e->plan.ntiles, l->fxyz, first_gid);
+            return wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
+    group_by_tile(&l->r, e->plan.ntiles, l->fxyz, 0);
     return 0;
 }
 
-/* Appends the routed batch seq once every earlier batch is in. */
-static void lane_append(tiler *tl, tiler_lane *l, uint64_t seq)
+/* Appends the routed batch, in reading order. */
+static int tile_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
-    wpd_run *e = tl->e;
-    pthread_mutex_lock(&tl->mu);
-    while (tl->next_append != seq)
-        pthread_cond_wait(&tl->turn, &tl->mu);
-    int failed = tl->failed;
-    pthread_mutex_unlock(&tl->mu);
-    wpd_error err = {0};
-    if (!failed && append_groups(e, &l->r, &err))
-        tiler_fail(tl, &err);
-    wpd_progress_add(e->opt->progress, l->batch.n);
-    if (seq == 0) /* once, when the first points are in (not per batch) */
+    tiler *tl = arg;
+    routing *r = &tl->lanes[pb->lane].r;
+    for (size_t k = 0; k < r->n; k++)
+        r->gid[k] += pb->first_gid;
+    if (append_groups(tl->e, r, err))
+        return -1;
+    if (pb->first_gid == 0) /* once, when the first points are in (not per batch) */
         wpd_test_stall("tile");
-    pthread_mutex_lock(&tl->mu);
-    tl->next_append++;
-    pthread_cond_broadcast(&tl->turn);
-    pthread_mutex_unlock(&tl->mu);
-}
-
-static void tiler_lane_run(tiler *tl)
-{
-    tiler_lane l;
-    if (lane_init(&l, tl->e)) {
-        wpd_error err;
-        wpd_fail(&err, WPD_E_MEMORY, "out of memory for tiling");
-        tiler_fail(tl, &err);
-        /* A lane that never reads takes no turn: nobody waits for it. */
-        lane_free(&l);
-        return;
-    }
-    uint64_t seq = 0, first_gid = 0;
-    while (lane_read(tl, &l, &seq, &first_gid) > 0) {
-        if (lane_route(tl->e, &l, first_gid)) {
-            wpd_error err;
-            wpd_fail(&err, WPD_E_MEMORY, "out of memory for tiling");
-            tiler_fail(tl, &err);
-        }
-        lane_append(tl, &l, seq); /* takes its turn even after a failure */
-    }
-    lane_free(&l);
+    return 0;
 }
 
 int wpd_tile_pass(wpd_run *e, wpd_error *err)
 {
-    tiler tl = {.e = e};
-    if (wpd_cloud_rewind(e->cloud, err))
-        return -1;
-    pthread_mutex_init(&tl.mu, NULL);
-    pthread_cond_init(&tl.turn, NULL);
-    /* A lane: batch, frame coordinates and routing for twice its points. */
-    size_t lane_bytes = (size_t)WPD_BATCH_POINTS * (e->record_size + 48) + 2 * (size_t)WPD_BATCH_POINTS * 42;
+    /* A lane of its own: frame coordinates and routing for twice its
+     * points, beside the pass's batch and cloud. */
+    size_t lane_bytes = (size_t)WPD_BATCH_POINTS * 24 + 2 * (size_t)WPD_BATCH_POINTS * 42 +
+                        wpd_pass_lane_bytes(e->cloud);
     int lanes = wpd_budget_pass_threads(e->opt->mem_bytes, e->threads, WPD_BUDGET_SPILL_BUFFERS,
                                         lane_bytes);
-#pragma omp parallel num_threads(lanes)
-    tiler_lane_run(&tl);
-    pthread_mutex_destroy(&tl.mu);
-    pthread_cond_destroy(&tl.turn);
-    if (tl.failed) {
-        if (err)
-            *err = tl.err;
-        return -1;
+    tiler tl = {e, calloc((size_t)lanes, sizeof(tiler_lane))};
+    int rc = tl.lanes ? 0 : -1;
+    for (int l = 0; rc == 0 && l < lanes; l++)
+        rc = lane_init(&tl.lanes[l], e);
+    if (rc) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
+    } else {
+        wpd_pass pass = {.cloud = e->cloud, .threads = lanes, .lane = tile_lane,
+                         .commit = tile_commit, .arg = &tl, .progress = e->opt->progress};
+        rc = wpd_pass_run(&pass, err);
     }
-    return wpd_tiles_finish(&e->tiles, err);
+    for (int l = 0; tl.lanes && l < lanes; l++)
+        lane_free(&tl.lanes[l]);
+    free(tl.lanes);
+    return rc ? -1 : wpd_tiles_finish(&e->tiles, err);
 }
-
