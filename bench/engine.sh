@@ -9,6 +9,10 @@
 # threads, peak RSS <= 600 MB and within 10 % of the 10 M peak, 100 M time
 # <= 11x the 10 M time, 2 threads >= 1.7x faster than 1. The page cache is
 # warmed by a read before every run.
+# WPD_BENCH_BASE=/path/to/another/wpd runs that binary too, each of its runs
+# right after the corresponding run of ./wpd, and prints its medians and the
+# ratios (this build / base) measured in the same run: the machine's speed
+# drifts by 10-20 % between hours, so only such ratios compare builds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 dir=bench/out/data
@@ -22,17 +26,15 @@ done
 
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 
-# run NAME THREADS INPUT N: repeat runs; NAME.tsv gets one line per run:
+# one BIN NAME THREADS INPUT N: one run of BIN; appends to NAME.tsv a line:
 # total seconds, peak RSS KB, then the per-phase seconds of the report.
-run() {
-    local name=$1 threads=$2 in=$3 n=$4
-    : >"$out/$name.tsv"
-    for _ in $(seq "$repeat"); do
-        cat "$in" >/dev/null
-        /usr/bin/time -v ./wpd resample "$in" -o "$out/$name.las" -n "$n" --mem 512M \
-            --threads "$threads" --force --tmpdir "$out" --report "$out/$name.json" -q \
-            2>"$out/$name.time"
-        /usr/bin/python3 - "$out/$name.json" "$out/$name.time" >>"$out/$name.tsv" <<'PY'
+one() {
+    local bin=$1 name=$2 threads=$3 in=$4 n=$5
+    cat "$in" >/dev/null
+    /usr/bin/time -v "$bin" resample "$in" -o "$out/$name.las" -n "$n" --mem 512M \
+        --threads "$threads" --force --tmpdir "$out" --report "$out/$name.json" -q \
+        2>"$out/$name.time"
+    /usr/bin/python3 - "$out/$name.json" "$out/$name.time" >>"$out/$name.tsv" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
 rss = [l.split(":")[1].strip() for l in open(sys.argv[2]) if "Maximum resident" in l][0]
@@ -40,6 +42,19 @@ s = r["seconds"]
 print("\t".join(str(v) for v in [s["total"], rss] + [s[k] for k in
       ("load", "scan", "tile", "poisson", "exact", "smooth", "write")] + [r["tiles"]["count"]]))
 PY
+}
+
+base=${WPD_BENCH_BASE:-}
+# run NAME THREADS INPUT N: repeat runs (NAME.tsv), and of the base
+# (NAME_base.tsv) right after each.
+run() {
+    local name=$1
+    shift
+    : >"$out/$name.tsv"
+    [ -z "$base" ] || : >"$out/${name}_base.tsv"
+    for _ in $(seq "$repeat"); do
+        one ./wpd "$name" "$@"
+        [ -z "$base" ] || one "$base" "${name}_base" "$@"
     done
 }
 
@@ -69,6 +84,18 @@ printf '%-22s %7s %10s %8s %8s %7s %5s   per phase (s)\n' run threads n seconds 
 for n in $sizes; do report "city_${n}_t2" 2 "$dir/city_$n.las" $((n / 100)); done
 report "city_${small}_to_$((big / 100))" 2 "$dir/city_$small.las" $((big / 100))
 report "city_${big}_t1" 1 "$dir/city_$big.las" $((big / 100))
+if [ -n "$base" ]; then
+    echo "base: $base"
+    for n in $sizes; do report "city_${n}_t2_base" 2 "$dir/city_$n.las" $((n / 100)); done
+    report "city_${small}_to_$((big / 100))_base" 2 "$dir/city_$small.las" $((big / 100))
+    report "city_${big}_t1_base" 1 "$dir/city_$big.las" $((big / 100))
+    echo "this build / base, medians of the same run (time, peak RSS):"
+    for r in $(for n in $sizes; do echo "city_${n}_t2"; done) "city_${small}_to_$((big / 100))" \
+             "city_${big}_t1"; do
+        printf '  %-22s time %.3f  rss %.3f\n' "$r" "$(echo "$(col "$r" 1) / $(col "${r}_base" 1)" | bc -l)" \
+            "$(echo "$(col "$r" 2) / $(col "${r}_base" 2)" | bc -l)"
+    done
+fi
 t_big=$(col "city_${big}_t2" 1) t_small=$(col "city_${small}_t2" 1) t_one=$(col "city_${big}_t1" 1)
 rss_big=$(col "city_${big}_t2" 2) rss_small=$(col "city_${small}_to_$((big / 100))" 2)
 printf 'time %s / %s points: %.2fx (target <= 11x)\n' "$big" "$small" "$(echo "$t_big / $t_small" | bc -l)"
