@@ -63,8 +63,9 @@ typedef struct view {
     uint8_t *edge;             /* [d.n] sharp labels, or NULL */
     uint32_t *cand;            /* candidates (view indices) */
     size_t ncand;
+    uint8_t *cls;              /* [d.n] CANDIDATE, FIXED, THEIRS (a neighbour's UNKNOWN
+                                  point, a candidate) or DROPPED */
     uint8_t *blind;            /* [d.n] */
-    uint8_t *theirs;           /* [d.n] 1: a neighbour's UNKNOWN point (a candidate) */
     uint8_t *wanted;           /* [d.n] own points and theirs: decisions needed; the
                                   other halo points are decided on demand */
     double *fixed;             /* [3 nfixed] */
@@ -79,7 +80,7 @@ static void view_free(const wpd_run *run, view *v)
     free(v->edge);
     free(v->cand);
     free(v->blind);
-    free(v->theirs);
+    free(v->cls);
     free(v->wanted);
     free(v->fixed);
     free(v->fixed_edge);
@@ -120,39 +121,84 @@ static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, 
     return 0;
 }
 
-/* Adds a fixed point (x, label) to v. */
-static void add_fixed(view *v, const double *x, int label)
+/* What a view point is for the tile (view.cls). */
+enum { DROPPED = 0, CANDIDATE = 1, FIXED = 2, THEIRS = 4 /* with CANDIDATE */ };
+
+/* The tile that owns view point i of d. */
+static int home_of(const wpd_run *run, int t, const wpd_tile_data *d, size_t i)
 {
-    memcpy(v->fixed + 3 * v->nfixed, x, 3 * sizeof *v->fixed);
-    if (v->fixed_edge)
-        v->fixed_edge[v->nfixed] = (uint8_t)label;
-    v->nfixed++;
+    return d->halo[i] ? run->plan.cell_tile[wpd_scan_cell_of(&run->scan, d->xyz + 3 * i)] : t;
 }
 
-/* Sorts point i of tile t's view into fixed, dropped or candidate. */
-static void classify(const wpd_run *run, const pass_ctx *pc, int t, view *v, size_t i)
+/* Point i of tile t's view: fixed, dropped or candidate. */
+static uint8_t classify(const wpd_run *run, const pass_ctx *pc, int t, const wpd_tile_data *d,
+                        size_t i)
+{
+    int home = home_of(run, t, d, i), own = home == t;
+    if (!own && !pc->processed[home]) /* a later colour of round 1: undecided */
+        return CANDIDATE;
+    if (own && pc->round == 0)
+        return CANDIDATE;
+    if (find(&run->store[home], d->gid[i]) >= 0)
+        return FIXED;
+    if (find(&pc->unknown[home], d->gid[i]) >= 0)
+        return own ? CANDIDATE : CANDIDATE | THEIRS;
+    return DROPPED; /* removed for certain */
+}
+
+/* Whether tile t leaves its own point p to a neighbour not yet run: in
+ * round 1, a point closer than H - r0 to such a neighbour's box is in that
+ * neighbour's view and not blind there, and the neighbour sees further
+ * into its own side, where t's view ends. Deciding it here would run into
+ * t's blind band (UNKNOWN points that taint what they touch, each costing
+ * a neighbourhood scan); left UNKNOWN, it is decided by the neighbour when
+ * it runs and handed back, and only what t's other points depend on is
+ * decided here. */
+static int deferred(const wpd_run *run, const pass_ctx *pc, int t, const double *p)
+{
+    if (pc->round > 0)
+        return 0;
+    const wpd_tile *tile = &run->plan.tiles[t];
+    double reach = run->halo - run->res->radius_estimate;
+    int near_face = 0; /* most own points lie deeper than reach in the box */
+    for (int a = 0; a < 3; a++)
+        near_face |= p[a] - tile->box_lo[a] < reach || tile->box_hi[a] - p[a] < reach;
+    if (!near_face)
+        return 0;
+    for (int j = 0; j < tile->nadj; j++) {
+        int u = tile->adj[j];
+        if (!pc->processed[u] && wpd_tile_distance2(&run->plan.tiles[u], p) < reach * reach)
+            return 1;
+    }
+    return 0;
+}
+
+/* The candidate and fixed lists of v, sized exactly (the arena is never
+ * trimmed: an array sized by the view would stay resident). */
+static int fill_lists(const wpd_run *run, int t, view *v, size_t ncand, size_t nfixed)
 {
     const wpd_tile_data *d = &v->d;
-    const double *x = d->xyz + 3 * i;
-    int home = d->halo[i] ? run->plan.cell_tile[wpd_scan_cell_of(&run->scan, x)] : t;
-    int own = home == t;
-    if (!own && !pc->processed[home]) { /* a later colour of round 1: undecided */
-        v->cand[v->ncand++] = (uint32_t)i;
-        return;
+    v->cand = malloc((ncand ? ncand : 1) * sizeof *v->cand);
+    v->kept = malloc((ncand ? ncand : 1) * sizeof *v->kept);
+    v->unknown = malloc((ncand ? ncand : 1) * sizeof *v->unknown);
+    v->fixed = malloc((nfixed ? nfixed : 1) * 3 * sizeof *v->fixed);
+    v->fixed_edge = run->p->sharp ? malloc(nfixed ? nfixed : 1) : NULL;
+    if (!v->cand || !v->kept || !v->unknown || !v->fixed || (run->p->sharp && !v->fixed_edge))
+        return -1;
+    for (size_t i = 0; i < d->n; i++) {
+        if (v->cls[i] & CANDIDATE) {
+            v->cand[v->ncand++] = (uint32_t)i;
+        } else if (v->cls[i] == FIXED) {
+            /* The owner's label of its own sample is the true one. */
+            const wpd_tile_samples *s = &run->store[home_of(run, t, d, i)];
+            long k = s->edge ? find(s, d->gid[i]) : -1;
+            memcpy(v->fixed + 3 * v->nfixed, d->xyz + 3 * i, 3 * sizeof *v->fixed);
+            if (v->fixed_edge)
+                v->fixed_edge[v->nfixed] = k >= 0 ? s->edge[k] : 0;
+            v->nfixed++;
+        }
     }
-    if (own && pc->round == 0) {
-        v->cand[v->ncand++] = (uint32_t)i;
-        return;
-    }
-    const wpd_tile_samples *kept = &run->store[home];
-    long k = find(kept, d->gid[i]);
-    if (k >= 0)
-        add_fixed(v, x, kept->edge ? kept->edge[k] : 0);
-    else if (find(&pc->unknown[home], d->gid[i]) >= 0) {
-        v->theirs[i] = !own;
-        v->cand[v->ncand++] = (uint32_t)i;
-    }
-    /* else removed for certain: dropped */
+    return 0;
 }
 
 /* Reads tile t and sorts its view for the three-valued pass. */
@@ -163,26 +209,26 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     if (wpd_tiles_read(&run->tiles, t, &v->d, err))
         return -1;
     size_t m = v->d.n ? v->d.n : 1;
-    v->cand = malloc(m * sizeof *v->cand);
+    v->cls = malloc(m);
     v->blind = malloc(m);
-    v->theirs = calloc(m, 1);
     v->wanted = malloc(m);
-    v->fixed = malloc(3 * m * sizeof *v->fixed);
-    v->fixed_edge = run->p->sharp ? malloc(m) : NULL;
-    v->kept = malloc(m * sizeof *v->kept);
-    v->unknown = malloc(m * sizeof *v->unknown);
-    if (!v->cand || !v->blind || !v->theirs || !v->wanted || !v->fixed || (run->p->sharp && !v->fixed_edge) || !v->kept ||
-        !v->unknown)
+    if (!v->cls || !v->blind || !v->wanted)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
     if (run->p->sharp && label_sharp(run, &v->d, threads, &v->edge, err))
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
     double blind_from = run->halo - run->res->radius_estimate;
+    size_t ncand = 0, nfixed = 0;
     for (size_t i = 0; i < v->d.n; i++) {
-        v->blind[i] = v->d.halo[i] && wpd_tile_distance(tile, v->d.xyz + 3 * i) >= blind_from;
-        classify(run, pc, t, v, i);
-        v->wanted[i] = !v->d.halo[i] || v->theirs[i];
+        const double *x = v->d.xyz + 3 * i;
+        uint8_t c = v->cls[i] = classify(run, pc, t, &v->d, i);
+        ncand += (c & CANDIDATE) != 0;
+        nfixed += c == FIXED;
+        v->blind[i] = v->d.halo[i] && wpd_tile_distance2(tile, x) >= blind_from * blind_from;
+        v->wanted[i] = (!v->d.halo[i] && !deferred(run, pc, t, x)) || (c & THEIRS);
     }
+    if (fill_lists(run, t, v, ncand, nfixed))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
     return 0;
 }
 
@@ -255,7 +301,7 @@ static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t
 {
     size_t m = 0;
     for (size_t c = 0; c < v->ncand; c++)
-        m += v->theirs[v->cand[c]];
+        m += (v->cls[v->cand[c]] & THEIRS) != 0;
     if (m == 0)
         return 0;
     f->gid = malloc(m * sizeof *f->gid);
@@ -272,7 +318,7 @@ static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t
             a++;
         while (b < nunknown && v->unknown[b] < i)
             b++;
-        if (!v->theirs[i] || (b < nunknown && v->unknown[b] == i))
+        if (!(v->cls[i] & THEIRS) || (b < nunknown && v->unknown[b] == i))
             continue;
         const double *x = v->d.xyz + 3 * (size_t)i;
         f->gid[f->n] = v->d.gid[i];
@@ -285,70 +331,105 @@ static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t
     return 0;
 }
 
-/* Removes sample k of s. */
-static void samples_remove(wpd_tile_samples *s, size_t k)
+/* One decision handed back: entry i of foreign list f. */
+typedef struct handed {
+    int owner;
+    uint64_t gid;
+    const foreign *f;
+    size_t i;
+} handed;
+
+static int cmp_handed(const void *a, const void *b)
 {
-    size_t tail = s->n - k - 1;
-    memmove(s->gid + k, s->gid + k + 1, tail * sizeof *s->gid);
-    memmove(s->xyz + 3 * k, s->xyz + 3 * (k + 1), 3 * tail * sizeof *s->xyz);
-    if (s->edge)
-        memmove(s->edge + k, s->edge + k + 1, tail);
-    s->n--;
+    const handed *x = a, *y = b;
+    if (x->owner != y->owner)
+        return x->owner < y->owner ? -1 : 1;
+    return (x->gid > y->gid) - (x->gid < y->gid);
 }
 
-/* Inserts a sample into s at its place in gid order. Returns 0 or -1. */
-static int samples_insert(wpd_tile_samples *s, uint64_t gid, const double *xyz, uint8_t edge,
-                          int with_edge)
+/* Applies the decisions h[0..m-1] (one owner, ascending gid, no repeat) to
+ * that owner: each leaves its UNKNOWN list; the kept ones join its samples
+ * (both lists stay in gid order: one merge each). Returns 0 or -1. */
+static int settle_handed(wpd_run *run, pass_ctx *pc, const handed *h, size_t m)
 {
-    size_t k = 0, n = s->n;
-    while (k < n && s->gid[k] < gid) /* few insertions: a scan is enough */
-        k++;
-    uint64_t *g = realloc(s->gid, (n + 1) * sizeof *g);
-    if (g)
-        s->gid = g;
-    double *x = realloc(s->xyz, 3 * (n + 1) * sizeof *x);
-    if (x)
-        s->xyz = x;
-    uint8_t *e = with_edge ? realloc(s->edge, n + 1) : s->edge;
-    if (with_edge && e)
-        s->edge = e;
-    if (!g || !x || (with_edge && !e))
+    int o = h[0].owner;
+    wpd_tile_samples *u = &pc->unknown[o], *s = &run->store[o], grown;
+    size_t kept = 0;
+    for (size_t i = 0; i < m; i++)
+        kept += h[i].f->kept[h[i].i];
+    int with_edge = s->edge != NULL;
+    if (wpd_samples_alloc(&grown, s->n + kept, with_edge))
         return -1;
-    memmove(s->gid + k + 1, s->gid + k, (n - k) * sizeof *s->gid);
-    memmove(s->xyz + 3 * (k + 1), s->xyz + 3 * k, 3 * (n - k) * sizeof *s->xyz);
-    s->gid[k] = gid;
-    memcpy(s->xyz + 3 * k, xyz, 3 * sizeof *s->xyz);
-    if (with_edge) {
-        memmove(s->edge + k + 1, s->edge + k, n - k);
-        s->edge[k] = edge;
+    size_t a = 0, b = 0, left = 0, k = 0;
+    for (size_t i = 0; i < u->n; i++) { /* the UNKNOWN list without h's points */
+        while (k < m && h[k].gid < u->gid[i])
+            k++;
+        if (k < m && h[k].gid == u->gid[i])
+            continue;
+        u->gid[left] = u->gid[i];
+        memmove(u->xyz + 3 * left, u->xyz + 3 * i, 3 * sizeof *u->xyz);
+        if (u->edge)
+            u->edge[left] = u->edge[i];
+        left++;
     }
-    s->n++;
+    u->n = left;
+    while (a < s->n || b < m) { /* the samples with h's kept points */
+        if (b < m && !h[b].f->kept[h[b].i]) {
+            b++;
+            continue;
+        }
+        int old = b == m || (a < s->n && s->gid[a] < h[b].gid);
+        const foreign *f = old ? NULL : h[b].f;
+        size_t j = old ? a : h[b].i, g = grown.n++;
+        grown.gid[g] = old ? s->gid[j] : f->gid[j];
+        memcpy(grown.xyz + 3 * g, old ? s->xyz + 3 * j : f->xyz + 3 * j, 3 * sizeof *grown.xyz);
+        if (with_edge)
+            grown.edge[g] = old ? s->edge[j] : f->edge[j];
+        old ? a++ : b++;
+    }
+    wpd_samples_free(s);
+    *s = grown;
     return 0;
 }
 
 /* After the tiles of a colour: their certain decisions about neighbours'
- * UNKNOWN points go to the owners (two tiles may decide the same point:
- * certain decisions agree, the second finds it settled). */
+ * UNKNOWN points go to the owners. Two tiles may decide the same point
+ * (certain decisions agree): it is applied once; a point no longer UNKNOWN
+ * is settled already. */
 static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
 {
     pass_ctx *pc = arg;
+    size_t total = 0;
+    for (int t = 0; t < run->plan.ntiles; t++)
+        if (run->plan.tiles[t].colour == colour)
+            total += pc->foreign[t].n;
+    handed *h = malloc((total ? total : 1) * sizeof *h);
+    if (!h)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu decisions", total);
+    size_t m = 0;
     for (int t = 0; t < run->plan.ntiles; t++) {
-        foreign *f = &pc->foreign[t];
-        if (run->plan.tiles[t].colour != colour || f->n == 0)
-            continue;
-        for (size_t i = 0; i < f->n; i++) {
-            wpd_tile_samples *u = &pc->unknown[f->owner[i]];
-            long k = find(u, f->gid[i]);
-            if (k < 0)
-                continue;
-            samples_remove(u, (size_t)k);
-            if (f->kept[i] && samples_insert(&run->store[f->owner[i]], f->gid[i],
-                                             f->xyz + 3 * i, f->edge[i], run->p->sharp))
-                return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", f->owner[i]);
-        }
-        foreign_free(f);
+        const foreign *f = &pc->foreign[t];
+        for (size_t i = 0; run->plan.tiles[t].colour == colour && i < f->n; i++)
+            if (find(&pc->unknown[f->owner[i]], f->gid[i]) >= 0)
+                h[m++] = (handed){f->owner[i], f->gid[i], f, i};
     }
-    return 0;
+    qsort(h, m, sizeof *h, cmp_handed);
+    size_t unique = 0;
+    for (size_t i = 0; i < m; i++)
+        if (unique == 0 || h[i].gid != h[unique - 1].gid || h[i].owner != h[unique - 1].owner)
+            h[unique++] = h[i];
+    int rc = 0;
+    for (size_t i = 0, j; rc == 0 && i < unique; i = j) {
+        for (j = i; j < unique && h[j].owner == h[i].owner; j++)
+            ;
+        if (settle_handed(run, pc, h + i, j - i))
+            rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", h[i].owner);
+    }
+    free(h);
+    for (int t = 0; t < run->plan.ntiles; t++)
+        if (run->plan.tiles[t].colour == colour)
+            foreign_free(&pc->foreign[t]);
+    return rc;
 }
 
 /* One tile of a round of the pass at radius pc->r. */
