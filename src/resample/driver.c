@@ -121,7 +121,8 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     wpd_resample_result *res = run->res;
     size_t mem = run->opt->mem_bytes;
     size_t room = mem > WPD_BUDGET_FIXED_BYTES ? mem - WPD_BUDGET_FIXED_BYTES : 0;
-    if (wpd_scan_run(run->cloud, WPD_LADDER_KEYS, run->p->voxel_frac, run->threads, room,
+    double paper_frac = run->p->radius_method == WPD_RADIUS_PAPER ? run->p->voxel_frac : 0;
+    if (wpd_scan_run(run->cloud, WPD_LADDER_KEYS, paper_frac, run->threads, room,
                      run->opt->progress, &run->scan, err))
         return -1;
     res->time.bounds = run->scan.bounds_seconds;

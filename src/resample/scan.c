@@ -45,6 +45,8 @@ static uint64_t paper_dim(const wpd_scan *s, int a)
  * holds (the estimate then interpolates the ladder's counts). */
 static uint64_t paper_cells(const wpd_scan *s)
 {
+    if (!(s->paper_frac > 0)) /* not asked for */
+        return 0;
     double cells = 1;
     for (int a = 0; a < 3; a++)
         cells *= (double)paper_dim(s, a);
@@ -178,7 +180,7 @@ static void set_frame(wpd_scan *s, const wpd_bounds *box)
 static void init_grid(wpd_scan *s)
 {
     double longest = fmax(s->extent[0], fmax(s->extent[1], s->extent[2]));
-    s->paper_edge = longest > 0 ? s->paper_frac * longest : 1; /* one point: any edge */
+    s->paper_edge = longest > 0 && s->paper_frac > 0 ? s->paper_frac * longest : 1;
     s->cell = longest > 0 ? longest / WPD_SCAN_GRID * (1 + 1e-9) : 1.0;
     s->inv_cell = 1.0 / s->cell;
     for (int a = 0; a < 3; a++) {

@@ -51,7 +51,8 @@ typedef struct wpd_scan {
 /* Runs the passes over cloud (rewound before and after) on up to `threads`
  * threads (>= 1; the counts do not depend on it): as many as fit in `room`
  * bytes beside the first thread's working set (wpd_threads_within, budget.h).
- * paper_frac: the paper's voxel edge over the longest side (> 0).
+ * paper_frac: the paper's voxel edge over the longest side, or 0 when the
+ * paper's estimate is not wanted (its count costs a bitmap write a point).
  * voxel_cap: the most voxel keys a thread's ladder holds at once (memory:
  * ~32 bytes each). Returns 0, or -1 with err set (read errors; WPD_E_INPUT
  * when there is no finite point). progress (may be NULL) gets phases
