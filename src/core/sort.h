@@ -16,4 +16,18 @@
 void wpd_radix_sort_u64(uint64_t *key, uint32_t *val, size_t n, int bits,
                         uint64_t *tmp_key, uint32_t *tmp_val);
 
+/* The first index i of a[0..n-1] (ascending) with a[i] >= key; n if none. */
+static inline size_t wpd_lower_bound_u64(const uint64_t *a, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (a[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 #endif

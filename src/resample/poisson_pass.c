@@ -30,6 +30,7 @@
 
 #include "core/grid.h"
 #include "core/knn.h"
+#include "core/sort.h"
 #include "wpd/refine.h"
 #include "wpd/sharp.h"
 
@@ -91,14 +92,7 @@ static void view_free(const wpd_run *run, view *v)
 /* Index of gid among s's samples (ascending), or -1. */
 static long find(const wpd_tile_samples *s, uint64_t gid)
 {
-    size_t lo = 0, hi = s->n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (s->gid[mid] < gid)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
+    size_t lo = wpd_lower_bound_u64(s->gid, s->n, gid);
     return lo < s->n && s->gid[lo] == gid ? (long)lo : -1;
 }
 

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/sort.h"
 #include "resample/budget.h"
 #include "resample/pass.h"
 
@@ -31,15 +32,7 @@ static size_t copy_batch(wpd_run *e, const wpd_batch *b, uint64_t first, size_t 
 /* The first sample with a global index >= gid. */
 static size_t first_sample_from(const wpd_resample_result *res, uint64_t gid)
 {
-    size_t lo = 0, hi = res->count;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (res->gid[mid] < gid)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
+    return wpd_lower_bound_u64(res->gid, res->count, gid);
 }
 
 /* Unordered: each lane copies its batches' samples into their own slots
