@@ -306,22 +306,13 @@ static void foreign_free(foreign *f)
 
 /* The certain decisions of v about neighbours' UNKNOWN points, into *f
  * (kept[] and unknown[] of the pass ascending). Returns 0 or -1. */
-static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
-                         foreign *f)
+/* Walks v's candidates that are other tiles' pending points and were kept
+ * or left UNKNOWN (kept[] and unknown[] ascending): counts them, and with
+ * f's arrays allocated, stores them. */
+static size_t walk_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
+                          foreign *f)
 {
-    size_t m = 0;
-    for (size_t c = 0; c < v->ncand; c++)
-        m += (v->cls[v->cand[c]] & THEIRS) != 0;
-    if (m == 0)
-        return 0;
-    f->gid = malloc(m * sizeof *f->gid);
-    f->xyz = malloc(3 * m * sizeof *f->xyz);
-    f->edge = malloc(m);
-    f->kept = malloc(m);
-    f->owner = malloc(m * sizeof *f->owner);
-    if (!f->gid || !f->xyz || !f->edge || !f->kept || !f->owner)
-        return -1;
-    size_t a = 0, b = 0; /* walk kept and unknown along the ascending candidates */
+    size_t a = 0, b = 0, m = 0;
     for (size_t c = 0; c < v->ncand; c++) {
         uint32_t i = v->cand[c];
         while (a < nkept && v->kept[a] < i)
@@ -331,14 +322,36 @@ static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t
         int kept = a < nkept && v->kept[a] == i, unknown = b < nunknown && v->unknown[b] == i;
         if (!(v->cls[i] & THEIRS) || (!kept && !unknown)) /* removed: nothing to tell */
             continue;
-        const double *x = v->d.xyz + 3 * (size_t)i;
-        f->gid[f->n] = v->d.gid[i];
-        memcpy(f->xyz + 3 * f->n, x, 3 * sizeof *f->xyz);
-        f->edge[f->n] = v->edge ? v->edge[i] : 0;
-        f->kept[f->n] = (uint8_t)kept;
-        f->owner[f->n] = run->plan.cell_tile[wpd_scan_cell_of(&run->scan, x)];
-        f->n++;
+        if (f->gid) {
+            const double *x = v->d.xyz + 3 * (size_t)i;
+            f->gid[m] = v->d.gid[i];
+            memcpy(f->xyz + 3 * m, x, 3 * sizeof *f->xyz);
+            f->edge[m] = v->edge ? v->edge[i] : 0;
+            f->kept[m] = (uint8_t)kept;
+            f->owner[m] = run->plan.cell_tile[wpd_scan_cell_of(&run->scan, x)];
+        }
+        m++;
     }
+    return m;
+}
+
+/* The kept and UNKNOWN decisions of v about other tiles' pending points,
+ * into *f, sized exactly: they wait for the end of the colour, and the
+ * arena keeps whatever size it once held. Returns 0 or -1. */
+static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
+                         foreign *f)
+{
+    size_t m = walk_theirs(run, v, nkept, nunknown, f);
+    if (m == 0)
+        return 0;
+    f->gid = malloc(m * sizeof *f->gid);
+    f->xyz = malloc(3 * m * sizeof *f->xyz);
+    f->edge = malloc(m);
+    f->kept = malloc(m);
+    f->owner = malloc(m * sizeof *f->owner);
+    if (!f->gid || !f->xyz || !f->edge || !f->kept || !f->owner)
+        return -1;
+    f->n = walk_theirs(run, v, nkept, nunknown, f);
     return 0;
 }
 
