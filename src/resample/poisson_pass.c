@@ -42,7 +42,7 @@ typedef struct foreign {
     uint64_t *gid;
     double *xyz;
     uint8_t *edge;
-    uint8_t *kept;             /* 1 kept, 0 UNKNOWN (removed ones are not told) */
+    uint8_t *kept;             /* 1 kept, 0 removed */
     int *owner;
 } foreign;
 
@@ -115,8 +115,6 @@ static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, 
     return 0;
 }
 
-static int deferred(const wpd_run *run, int t, const double *p);
-
 /* What a view point is for the tile (view.cls). */
 enum { DROPPED = 0, CANDIDATE = 1, FIXED = 2, THEIRS = 4 /* with CANDIDATE */ };
 
@@ -139,38 +137,7 @@ static uint8_t classify(const wpd_run *run, const pass_ctx *pc, int t, const wpd
         return FIXED;
     if (find(&pc->unknown[home], d->gid[i]) >= 0)
         return own ? CANDIDATE : CANDIDATE | THEIRS;
-    /* In round 1, a point its tile left to its later neighbours: decided
-     * again here if another neighbour removed it already (certain
-     * decisions agree; only the kept ones are handed back). */
-    if (!own && pc->round == 0 && deferred(run, home, d->xyz + 3 * i))
-        return CANDIDATE | THEIRS;
     return DROPPED; /* removed for certain */
-}
-
-/* Whether tile t, in round 1, leaves its own point p to a neighbour of a
- * later colour: a point closer than H - r0 to such a neighbour's box is in
- * that neighbour's view and not blind there, and the neighbour sees
- * further into its own side, where t's view ends. Deciding it in t would
- * run into t's blind band (UNKNOWN points that taint what they touch, each
- * costing a neighbourhood scan); left undecided, the neighbour decides it
- * and hands the kept ones back, and t decides only what its other points
- * depend on. A rule, not a list: every tile can tell which points of t
- * were left so (no memory that grows with the input). */
-static int deferred(const wpd_run *run, int t, const double *p)
-{
-    const wpd_tile *tile = &run->plan.tiles[t];
-    double reach = run->halo - run->res->radius_estimate;
-    int near_face = 0; /* most own points lie deeper than reach in the box */
-    for (int a = 0; a < 3; a++)
-        near_face |= p[a] - tile->box_lo[a] < reach || tile->box_hi[a] - p[a] < reach;
-    if (!near_face)
-        return 0;
-    for (int j = 0; j < tile->nadj; j++) {
-        const wpd_tile *u = &run->plan.tiles[tile->adj[j]];
-        if (u->colour > tile->colour && wpd_tile_distance2(u, p) < reach * reach)
-            return 1;
-    }
-    return 0;
 }
 
 /* The candidate and fixed lists of v, sized exactly (the arena is never
@@ -225,8 +192,7 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
         ncand += (c & CANDIDATE) != 0;
         nfixed += c == FIXED;
         v->blind[i] = v->d.halo[i] && wpd_tile_distance2(tile, x) >= blind_from * blind_from;
-        v->wanted[i] = (!v->d.halo[i] && !(pc->round == 0 && deferred(run, t, x))) ||
-                       (c & THEIRS);
+        v->wanted[i] = !v->d.halo[i] || (c & THEIRS);
     }
     if (fill_lists(run, t, v, ncand, nfixed))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
@@ -236,12 +202,10 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
 /* Tile t's new state: its certain kept own points join its samples, its
  * unknown own points replace its unknown list. */
 /* Whether UNKNOWN view point j of tile t goes on t's UNKNOWN list: an own
- * point, but not one left to a later neighbour in round 1 (pending by the
- * rule, see deferred). */
-static int pending(const wpd_run *run, const pass_ctx *pc, int t, const wpd_tile_data *d,
-                   uint32_t j)
+ * point. */
+static int pending(const wpd_tile_data *d, uint32_t j)
 {
-    return !d->halo[j] && !(pc->round == 0 && deferred(run, t, d->xyz + 3 * (size_t)j));
+    return !d->halo[j];
 }
 
 static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept,
@@ -253,7 +217,7 @@ static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept
     for (size_t i = 0; i < nkept; i++)
         own_kept += !d->halo[v->kept[i]];
     for (size_t i = 0; i < nunknown; i++)
-        own_unknown += pending(run, pc, t, d, v->unknown[i]);
+        own_unknown += pending(d, v->unknown[i]);
     int with_edge = v->edge != NULL;
     if (wpd_samples_alloc(&grown, s->n + own_kept, with_edge) ||
         wpd_samples_alloc(&left, own_unknown, with_edge)) {
@@ -278,7 +242,7 @@ static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept
     }
     for (size_t i = 0; i < nunknown; i++) {
         uint32_t j = v->unknown[i];
-        if (!pending(run, pc, t, d, j))
+        if (!pending(d, j))
             continue;
         left.gid[left.n] = d->gid[j];
         memcpy(left.xyz + 3 * left.n, d->xyz + 3 * (size_t)j, 3 * sizeof *left.xyz);
@@ -306,9 +270,9 @@ static void foreign_free(foreign *f)
 
 /* The certain decisions of v about neighbours' UNKNOWN points, into *f
  * (kept[] and unknown[] of the pass ascending). Returns 0 or -1. */
-/* Walks v's candidates that are other tiles' pending points and were kept
- * or left UNKNOWN (kept[] and unknown[] ascending): counts them, and with
- * f's arrays allocated, stores them. */
+/* Walks v's candidates that are other tiles' UNKNOWN points and were
+ * decided for certain here (kept[] and unknown[] ascending): counts them,
+ * and with f's arrays allocated, stores them. */
 static size_t walk_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
                           foreign *f)
 {
@@ -320,7 +284,7 @@ static size_t walk_theirs(const wpd_run *run, const view *v, size_t nkept, size_
         while (b < nunknown && v->unknown[b] < i)
             b++;
         int kept = a < nkept && v->kept[a] == i, unknown = b < nunknown && v->unknown[b] == i;
-        if (!(v->cls[i] & THEIRS) || (!kept && !unknown)) /* removed: nothing to tell */
+        if (!(v->cls[i] & THEIRS) || unknown) /* UNKNOWN here too: nothing to tell */
             continue;
         if (f->gid) {
             const double *x = v->d.xyz + 3 * (size_t)i;
@@ -335,8 +299,8 @@ static size_t walk_theirs(const wpd_run *run, const view *v, size_t nkept, size_
     return m;
 }
 
-/* The kept and UNKNOWN decisions of v about other tiles' pending points,
- * into *f, sized exactly: they wait for the end of the colour, and the
+/* The certain decisions of v about other tiles' UNKNOWN points, into *f,
+ * sized exactly: they wait for the end of the colour, and the
  * arena keeps whatever size it once held. Returns 0 or -1. */
 static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
                          foreign *f)
@@ -368,35 +332,39 @@ static int cmp_handed(const void *a, const void *b)
     const handed *x = a, *y = b;
     if (x->owner != y->owner)
         return x->owner < y->owner ? -1 : 1;
-    if (x->gid != y->gid)
-        return x->gid < y->gid ? -1 : 1;
-    return (int)y->f->kept[y->i] - (int)x->f->kept[x->i]; /* kept first */
+    return (x->gid > y->gid) - (x->gid < y->gid);
 }
 
-/* Applies the decisions h[0..m-1] (one owner, ascending gid, a kept one
- * first where two tiles told the same point) to that owner: a kept point
- * joins its samples and leaves its UNKNOWN list; an UNKNOWN one joins
- * that list unless kept already (both lists stay in gid order: one merge
- * each). Returns 0 or -1. */
+/* Applies the decisions h[0..m-1] (one owner, ascending gid, no repeat)
+ * to that owner: each point leaves its UNKNOWN list, and the kept ones join
+ * its samples (both lists stay in gid order: one merge each). Returns 0 or
+ * -1. */
 static int settle_handed(wpd_run *run, pass_ctx *pc, const handed *h, size_t m)
 {
     int o = h[0].owner;
-    wpd_tile_samples *u = &pc->unknown[o], *s = &run->store[o], grown, left;
+    wpd_tile_samples *u = &pc->unknown[o], *s = &run->store[o], grown;
     int with_edge = s->edge != NULL;
-    if (wpd_samples_alloc(&grown, s->n + m, with_edge) ||
-        wpd_samples_alloc(&left, u->n + m, with_edge)) {
-        wpd_samples_free(&grown);
+    if (wpd_samples_alloc(&grown, s->n + m, with_edge))
         return -1;
+    size_t a = 0, b = 0, left = 0, k = 0;
+    for (size_t i = 0; i < u->n; i++) { /* the UNKNOWN list without h's points */
+        while (k < m && h[k].gid < u->gid[i])
+            k++;
+        if (k < m && h[k].gid == u->gid[i])
+            continue;
+        u->gid[left] = u->gid[i];
+        memmove(u->xyz + 3 * left, u->xyz + 3 * i, 3 * sizeof *u->xyz);
+        if (u->edge)
+            u->edge[left] = u->edge[i];
+        left++;
     }
-    size_t a = 0, b = 0;
-    while (a < s->n || b < m) { /* samples + kept decisions */
-        int old = b == m || (a < s->n && s->gid[a] <= h[b].gid);
-        if (!old && (!h[b].f->kept[h[b].i])) {
+    u->n = left;
+    while (a < s->n || b < m) { /* the samples with h's kept points */
+        if (b < m && !h[b].f->kept[h[b].i]) {
             b++;
             continue;
         }
-        if (old && b < m && s->gid[a] == h[b].gid)
-            b++; /* kept already */
+        int old = b == m || (a < s->n && s->gid[a] < h[b].gid);
         const foreign *f = old ? NULL : h[b].f;
         size_t j = old ? a : h[b].i, g = grown.n++;
         grown.gid[g] = old ? s->gid[j] : f->gid[j];
@@ -405,35 +373,14 @@ static int settle_handed(wpd_run *run, pass_ctx *pc, const handed *h, size_t m)
             grown.edge[g] = old ? s->edge[j] : f->edge[j];
         old ? a++ : b++;
     }
-    a = b = 0;
-    while (a < u->n || b < m) { /* UNKNOWN list - kept decisions + UNKNOWN ones */
-        int old = b == m || (a < u->n && u->gid[a] < h[b].gid);
-        int same = !old && a < u->n && u->gid[a] == h[b].gid;
-        if (!old && (h[b].f->kept[h[b].i] || find(&grown, h[b].gid) >= 0)) {
-            a += same, b++; /* kept now, or earlier: off the list */
-            continue;
-        }
-        const foreign *f = old ? NULL : h[b].f;
-        size_t j = old ? a : h[b].i, g = left.n++;
-        left.gid[g] = old ? u->gid[j] : f->gid[j];
-        memcpy(left.xyz + 3 * g, old ? u->xyz + 3 * j : f->xyz + 3 * j, 3 * sizeof *left.xyz);
-        if (with_edge)
-            left.edge[g] = old ? u->edge[j] : f->edge[j];
-        if (same)
-            a++;
-        old ? a++ : b++;
-    }
     wpd_samples_free(s);
-    wpd_samples_free(u);
     *s = grown;
-    *u = left;
     return 0;
 }
 
-/* After the tiles of a colour: their decisions about other tiles' pending
- * points go to the owners (kept and UNKNOWN ones; a removed point needs no
- * record). Two tiles may tell the same point: certain decisions agree, and
- * a kept one wins over an UNKNOWN one. */
+/* After the tiles of a colour: their certain decisions about other tiles'
+ * UNKNOWN points go to the owners. Two tiles may decide the same point:
+ * certain decisions agree, so it is applied once. */
 static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
 {
     pass_ctx *pc = arg;
@@ -448,7 +395,8 @@ static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
     for (int t = 0; t < run->plan.ntiles; t++) {
         const foreign *f = &pc->foreign[t];
         for (size_t i = 0; run->plan.tiles[t].colour == colour && i < f->n; i++)
-            h[m++] = (handed){f->owner[i], f->gid[i], f, i};
+            if (find(&pc->unknown[f->owner[i]], f->gid[i]) >= 0) /* else settled already */
+                h[m++] = (handed){f->owner[i], f->gid[i], f, i};
     }
     qsort(h, m, sizeof *h, cmp_handed);
     size_t unique = 0;
