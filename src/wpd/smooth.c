@@ -120,10 +120,11 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
                 /* A neighbouring block's sample counts by its own label:
                  * a tile border must not fix an edge sample that the
                  * whole cloud would move. */
-                int nb_sharp = nb[j] < n ? in->edge[nb[j]]
-                                         : in->ctx_edge && in->ctx_edge[nb[j] - n];
-                if (in->edge && in->edge[i] && !nb_sharp)
-                    sharp_with_normal_neighbour = 1;
+                if (in->edge && in->edge[i]) {
+                    int nb_sharp = nb[j] < n ? in->edge[nb[j]]
+                                             : in->ctx_edge && in->ctx_edge[nb[j] - n];
+                    sharp_with_normal_neighbour |= !nb_sharp;
+                }
                 nb[j] = nb[j] < n ? inv[nb[j]] : nb[j]; /* to order space */
             }
             f->fixed[o] = (uint8_t)sharp_with_normal_neighbour;
