@@ -176,21 +176,6 @@ wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err)
     return copy;
 }
 
-int wpd_cloud_seek(wpd_cloud *c, uint64_t index, wpd_error *err)
-{
-    wpd_cloud_rewind(c, err);
-    while (c->current < c->nfiles && index >= c->headers[c->current].point_count)
-        index -= c->headers[c->current++].point_count;
-    if (c->current == c->nfiles)
-        return 0; /* at the end */
-    if (!(c->reader = wpd_reader_open(c->headers[c->current].path, err)))
-        return -1;
-    if (!wpd_reader_can_seek(c->reader))
-        return wpd_fail(err, WPD_E_USAGE, "%s: records of this format cannot be positioned",
-                        c->headers[c->current].path);
-    return wpd_reader_seek(c->reader, index, err);
-}
-
 int wpd_cloud_can_seek(const wpd_cloud *c) { return c->all_seek; }
 
 int wpd_cloud_seek_stretch(wpd_cloud *c, uint64_t index, uint64_t count, wpd_error *err)

@@ -38,13 +38,6 @@ long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err);
  * for reading in parallel. Returns NULL with err set. */
 wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err);
 
-/* Positions c so that the next read starts at record `index`, counted over
- * all files in order (a file holds its header's point_count records).
- * Global indices of points equal record indices when no point was dropped.
- * Returns 0, or -1 with err set (WPD_E_USAGE when that file's records
- * cannot be positioned: ASCII PLY). */
-int wpd_cloud_seek(wpd_cloud *c, uint64_t index, wpd_error *err);
-
 /* 1 when every file's records can be positioned (wpd_cloud_seek_stretch
  * works anywhere), else 0 (ASCII PLY, PLY vertices with lists). */
 int wpd_cloud_can_seek(const wpd_cloud *c);
@@ -53,9 +46,10 @@ int wpd_cloud_can_seek(const wpd_cloud *c);
  * reads to the stretch of at most `count` records from there that lies in
  * index's file: wpd_cloud_read then delivers the finite points of that
  * stretch and returns 0 at its end (until the next seek or rewind). For
- * reading a cloud in units of records on several threads. Unlike
- * wpd_cloud_seek, the counts (wpd_cloud_delivered, wpd_cloud_dropped) are
- * kept: a cloud that reads many stretches has counted all of them; the
+ * reading a cloud in units of records on several threads (a file holds its
+ * header's point_count records). Unlike a rewind, it keeps the counts
+ * (wpd_cloud_delivered, wpd_cloud_dropped): a cloud that reads many
+ * stretches has counted all of them; the
  * file's reader stays open from one stretch to the next in the same file.
  * Returns 0, or -1 with err set (WPD_E_USAGE when that file cannot seek). */
 int wpd_cloud_seek_stretch(wpd_cloud *c, uint64_t index, uint64_t count, wpd_error *err);

@@ -201,13 +201,6 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
 
 /* Tile t's new state: its certain kept own points join its samples, its
  * unknown own points replace its unknown list. */
-/* Whether UNKNOWN view point j of tile t goes on t's UNKNOWN list: an own
- * point. */
-static int pending(const wpd_tile_data *d, uint32_t j)
-{
-    return !d->halo[j];
-}
-
 static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept,
                   size_t nunknown)
 {
@@ -217,7 +210,7 @@ static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept
     for (size_t i = 0; i < nkept; i++)
         own_kept += !d->halo[v->kept[i]];
     for (size_t i = 0; i < nunknown; i++)
-        own_unknown += pending(d, v->unknown[i]);
+        own_unknown += !d->halo[v->unknown[i]];
     int with_edge = v->edge != NULL;
     if (wpd_samples_alloc(&grown, s->n + own_kept, with_edge) ||
         wpd_samples_alloc(&left, own_unknown, with_edge)) {
@@ -242,7 +235,7 @@ static int settle(wpd_run *run, pass_ctx *pc, int t, const view *v, size_t nkept
     }
     for (size_t i = 0; i < nunknown; i++) {
         uint32_t j = v->unknown[i];
-        if (!pending(d, j))
+        if (d->halo[j]) /* only own points go on the tile's list */
             continue;
         left.gid[left.n] = d->gid[j];
         memcpy(left.xyz + 3 * left.n, d->xyz + 3 * (size_t)j, 3 * sizeof *left.xyz);

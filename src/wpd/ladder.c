@@ -1,7 +1,6 @@
 #include "wpd/ladder.h"
 
 #include <math.h>
-#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -133,40 +132,4 @@ int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales)
 void wpd_ladder_free(wpd_ladder *l)
 {
     wpd_voxel_set_free(&l->set);
-}
-
-double wpd_ladder_radius(const double *xyz, size_t n, const double extent[3], size_t target,
-                         double density, int threads)
-{
-    if (threads <= 0)
-        threads = omp_get_max_threads();
-    wpd_ladder *part = calloc((size_t)threads, sizeof *part);
-    if (!part)
-        return -1;
-    double edge[WPD_MAX_SCALES];
-    uint64_t m[WPD_MAX_SCALES];
-    int nscales = 0, rc = 0;
-    /* Each thread counts a contiguous share; the merge gives what one
-     * stream over all points gives (wpd_ladder_merge). */
-#pragma omp parallel num_threads(threads) reduction(| : rc)
-    {
-        int t = omp_get_thread_num(), nt = omp_get_num_threads();
-        size_t lo = n * (size_t)t / (size_t)nt, hi = n * (size_t)(t + 1) / (size_t)nt;
-        rc |= wpd_ladder_init(&part[t], extent, n, WPD_LADDER_KEYS);
-        for (size_t i = lo; rc == 0 && i < hi; i++)
-            rc |= wpd_ladder_put(&part[t], xyz + 3 * i);
-    }
-    for (int t = 1; rc == 0 && t < threads; t++)
-        if (part[t].set.slot) /* NULL: the team had fewer threads */
-            rc = wpd_ladder_merge(&part[0], &part[t]);
-    if (rc == 0)
-        rc = wpd_ladder_finish(&part[0], edge, m, &nscales);
-    for (int t = 0; t < threads; t++)
-        wpd_ladder_free(&part[t]);
-    free(part);
-    if (rc)
-        return -1;
-    wpd_radius_info ri;
-    wpd_radius_from_counts(edge, m, nscales, target, density, &ri);
-    return ri.radius;
 }

@@ -48,11 +48,4 @@ int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales);
 
 void wpd_ladder_free(wpd_ladder *l);
 
-/* The radius for target samples from points xyz[3n] (frame coordinates
- * >= 0, extent as given) with the ladder above and the multiscale density,
- * counted on `threads` threads (<= 0: the OpenMP default; the result does
- * not depend on it). Returns the radius, or -1 when out of memory. */
-double wpd_ladder_radius(const double *xyz, size_t n, const double extent[3], size_t target,
-                         double density, int threads);
-
 #endif
