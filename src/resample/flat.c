@@ -6,7 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "core/sort.h"
 #include "wpd/exact.h"
 #include "wpd/refine.h"
 
@@ -19,19 +18,26 @@ void wpd_flat_free(wpd_flat *f)
     memset(f, 0, sizeof *f);
 }
 
-/* Sorted position j of f comes from tile tile[j], sample local[from[j]]. */
-static void gather_sorted(const wpd_run *run, wpd_flat *f, const uint32_t *from,
-                          const uint32_t *local, uint32_t *tile_of)
+/* A min-heap of tiles keyed by the gid of their next sample. */
+typedef struct head {
+    uint64_t gid;
+    int tile;
+} head;
+
+static void sift_down(head *h, size_t n, size_t i)
 {
-    for (size_t j = 0; j < f->n; j++)
-        tile_of[j] = (uint32_t)f->tile[from[j]];
-    for (size_t j = 0; j < f->n; j++) {
-        const wpd_tile_samples *s = &run->store[tile_of[j]];
-        size_t i = local[from[j]];
-        memcpy(f->xyz + 3 * j, s->xyz + 3 * i, 3 * sizeof *f->xyz);
-        if (f->edge)
-            f->edge[j] = s->edge[i];
-        f->tile[j] = (int)tile_of[j];
+    for (;;) {
+        size_t c = 2 * i + 1;
+        if (c >= n)
+            return;
+        if (c + 1 < n && h[c + 1].gid < h[c].gid)
+            c++;
+        if (h[i].gid <= h[c].gid)
+            return;
+        head tmp = h[i];
+        h[i] = h[c];
+        h[c] = tmp;
+        i = c;
     }
 }
 
@@ -44,37 +50,44 @@ static int labelled(const wpd_run *run)
     return 0;
 }
 
+/* Each tile's samples ascend by gid: a merge of the tiles gives the flat
+ * set in gid order with one heap entry per tile, not a sort with its index
+ * arrays (24 bytes a sample at the run's memory peak). */
 int wpd_flat_from_store(const wpd_run *run, wpd_flat *f)
 {
+    int ntiles = run->plan.ntiles;
     size_t n = f->n = wpd_run_store_count(run), m = n ? n : 1;
     int with_edge = labelled(run);
     f->gid = malloc(m * sizeof *f->gid);
     f->xyz = malloc(m * 3 * sizeof *f->xyz);
     f->edge = with_edge ? malloc(m) : NULL;
     f->tile = malloc(m * sizeof *f->tile);
-    uint64_t *tk = malloc(m * sizeof *tk);
-    uint32_t *from = malloc(m * sizeof *from), *tv = malloc(m * sizeof *tv);
-    uint32_t *local = malloc(m * sizeof *local);
-    int rc = f->gid && f->xyz && f->tile && (f->edge || !with_edge) && tk && from && tv &&
-                     local
-                 ? 0
-                 : -1;
-    size_t k = 0;
-    for (int t = 0; rc == 0 && t < run->plan.ntiles; t++)
-        for (size_t i = 0; i < run->store[t].n; i++, k++) {
-            f->gid[k] = run->store[t].gid[i];
-            f->tile[k] = t;
-            local[k] = (uint32_t)i;
-            from[k] = (uint32_t)k;
-        }
-    if (rc == 0) {
-        wpd_radix_sort_u64(f->gid, from, n, 64, tk, tv);
-        gather_sorted(run, f, from, local, tv);
+    size_t *next = calloc((size_t)ntiles, sizeof *next);
+    head *h = malloc((size_t)(ntiles ? ntiles : 1) * sizeof *h);
+    int rc = f->gid && f->xyz && f->tile && (f->edge || !with_edge) && next && h ? 0 : -1;
+    size_t nh = 0;
+    for (int t = 0; rc == 0 && t < ntiles; t++)
+        if (run->store[t].n)
+            h[nh++] = (head){run->store[t].gid[0], t};
+    for (size_t i = nh; i-- > 0;)
+        sift_down(h, nh, i);
+    for (size_t j = 0; rc == 0 && j < n; j++) {
+        int t = h[0].tile;
+        const wpd_tile_samples *s = &run->store[t];
+        size_t i = next[t]++;
+        f->gid[j] = s->gid[i];
+        memcpy(f->xyz + 3 * j, s->xyz + 3 * i, 3 * sizeof *f->xyz);
+        if (f->edge)
+            f->edge[j] = s->edge ? s->edge[i] : 0;
+        f->tile[j] = t;
+        if (next[t] < s->n)
+            h[0].gid = s->gid[next[t]];
+        else
+            h[0] = h[--nh];
+        sift_down(h, nh, 0);
     }
-    free(tk);
-    free(from);
-    free(tv);
-    free(local);
+    free(next);
+    free(h);
     return rc;
 }
 

@@ -28,6 +28,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/heap.h"
 #include "core/grid.h"
 #include "core/knn.h"
 #include "core/sort.h"
@@ -574,6 +575,7 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
         if (count > n) {
             double r = pc.r;
             pass_ctx_free(run, &pc); /* the pruning's peak is next */
+            wpd_heap_release();
             rc = wpd_prune_phase(run, r, err);
             break;
         }

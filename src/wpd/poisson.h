@@ -85,7 +85,10 @@ typedef struct wpd_poisson_certain_input {
  *           priority lies within conflict distance - a blind one counted
  *           at radius r, the largest its label allows;
  *   KEPT    otherwise.
- * UNKNOWN candidates remove nothing.
+ * UNKNOWN candidates remove nothing. Blind candidates are never scanned:
+ * one of smaller priority that is not yet REMOVED when a candidate is
+ * decided counts as UNKNOWN, so a candidate may be UNKNOWN where the rules
+ * above decide it (never KEPT or REMOVED where they say otherwise).
  *
  * Guarantee. Call "reference" the one-block pass over the whole cloud with
  * the true labels (wpd_poisson_pass over every point, no fixed points). If

@@ -436,12 +436,12 @@ static void brute_force(const wpd_poisson_certain_input *ci, uint8_t *out)
     free(ord);
 }
 
-TEST(poisson_certain_matches_a_brute_force_reading_of_the_rules)
+TEST(poisson_certain_agrees_with_a_brute_force_reading_of_the_rules)
 {
     /* Dense enough that many conflicting pairs share a priority band (the
      * pass decides a band's points in cell order, resolving dependencies
      * on demand); every combination of blind and sharp. */
-    size_t unknown = 0;
+    size_t unknown = 0, all_undecided = 0, all_decided = 0;
     for (int kind = 0; kind < NKINDS; kind++)
         for (int t = 0; t < 4; t++) {
             cloud c = make_cloud(kind, 1500, 40 + (uint64_t)t);
@@ -474,16 +474,28 @@ TEST(poisson_certain_matches_a_brute_force_reading_of_the_rules)
                 got[kept[i]] = D_KEPT;
             for (size_t i = 0; i < nu; i++)
                 got[unk[i]] = D_UNKNOWN;
-            size_t diff = 0;
-            for (size_t i = 0; i < n; i++)
-                diff += got[i] != want[i];
-            CHECK_MSG(diff == 0, "%s case %d: %zu of %zu decisions differ", kind_name[kind], t,
-                      diff, n);
+            /* The pass may leave UNKNOWN what the rules decide (blind
+             * candidates are not scanned, poisson.h), never decide
+             * otherwise; and it leaves few such. */
+            size_t wrong = 0, undecided = 0, decided = 0;
+            for (size_t i = 0; i < n; i++) {
+                wrong += got[i] != D_UNKNOWN && got[i] != want[i];
+                undecided += got[i] == D_UNKNOWN && want[i] != D_UNKNOWN;
+                decided += want[i] != D_UNKNOWN;
+            }
+            CHECK_MSG(wrong == 0, "%s case %d: %zu of %zu decisions differ", kind_name[kind], t,
+                      wrong, n);
+            CHECK_MSG(undecided * 20 <= decided, "%s case %d: %zu of %zu decisions left UNKNOWN",
+                      kind_name[kind], t, undecided, decided);
+            all_undecided += undecided;
+            all_decided += decided;
             unknown += nu;
             free(edge); free(blind); free(want); free(got); free(kept); free(unk);
             cloud_free(&c);
         }
     CHECK(unknown > 0);
+    printf("     %zu of the %zu decisions of the rules left UNKNOWN by the pass\n", all_undecided,
+           all_decided);
 }
 
 TEST(poisson_certain_blind_points_and_fixed_labels)
