@@ -65,6 +65,7 @@ typedef struct view {
     uint8_t *edge;             /* [d.n] sharp labels, or NULL */
     uint32_t *cand;            /* candidates (view indices) */
     size_t ncand;
+    size_t theirs;             /* candidates that are other tiles' UNKNOWN points */
     uint8_t *cls;              /* [d.n] CANDIDATE, FIXED, THEIRS (a neighbour's UNKNOWN
                                   point, a candidate) or DROPPED */
     uint8_t *blind;            /* [d.n] */
@@ -97,6 +98,23 @@ static long find(const wpd_tile_samples *s, uint64_t gid)
     return lo < s->n && s->gid[lo] == gid ? (long)lo : -1;
 }
 
+/* find, for gids asked in ascending order: *at walks s once (a view's
+ * points ascend by gid, so do those from one tile). A smaller gid than the
+ * last one asked falls back to a binary search. */
+static long find_next(const wpd_tile_samples *s, size_t *at, uint64_t gid)
+{
+    if (*at > 0 && *at <= s->n && s->gid[*at - 1] >= gid)
+        *at = wpd_lower_bound_u64(s->gid, s->n, gid);
+    while (*at < s->n && s->gid[*at] < gid)
+        (*at)++;
+    return *at < s->n && s->gid[*at] == gid ? (long)*at : -1;
+}
+
+/* One walk position per tile in its samples and in its UNKNOWN list. */
+typedef struct cursors {
+    size_t *store, *unknown;
+} cursors;
+
 /* Sharp labels of the points of d, from the input within r0 of each (the
  * capped detector): exact for own points and halo points closer than
  * H - r0 to the box, the ones that are not blind. */
@@ -125,25 +143,27 @@ static int home_of(const wpd_run *run, int t, const wpd_tile_data *d, size_t i)
     return d->halo[i] ? run->plan.cell_tile[wpd_scan_cell_of(&run->scan, d->xyz + 3 * i)] : t;
 }
 
-/* Point i of tile t's view: fixed, dropped or candidate. */
+/* Point i of tile t's view (asked in ascending i): fixed, dropped or
+ * candidate. */
 static uint8_t classify(const wpd_run *run, const pass_ctx *pc, int t, const wpd_tile_data *d,
-                        size_t i)
+                        size_t i, cursors *at)
 {
     int home = home_of(run, t, d, i), own = home == t;
     if (!own && !pc->processed[home]) /* a later colour of round 1: undecided */
         return CANDIDATE;
     if (own && pc->round == 0)
         return CANDIDATE;
-    if (find(&run->store[home], d->gid[i]) >= 0)
+    if (find_next(&run->store[home], &at->store[home], d->gid[i]) >= 0)
         return FIXED;
-    if (find(&pc->unknown[home], d->gid[i]) >= 0)
+    if (find_next(&pc->unknown[home], &at->unknown[home], d->gid[i]) >= 0)
         return own ? CANDIDATE : CANDIDATE | THEIRS;
     return DROPPED; /* removed for certain */
 }
 
 /* The candidate and fixed lists of v, sized exactly (the arena is never
  * trimmed: an array sized by the view would stay resident). */
-static int fill_lists(const wpd_run *run, int t, view *v, size_t ncand, size_t nfixed)
+static int fill_lists(const wpd_run *run, int t, view *v, size_t ncand, size_t nfixed,
+                      size_t *at)
 {
     const wpd_tile_data *d = &v->d;
     v->cand = malloc((ncand ? ncand : 1) * sizeof *v->cand);
@@ -159,7 +179,7 @@ static int fill_lists(const wpd_run *run, int t, view *v, size_t ncand, size_t n
         } else if (v->cls[i] == FIXED) {
             /* The owner's label of its own sample is the true one. */
             const wpd_tile_samples *s = &run->store[home_of(run, t, d, i)];
-            long k = s->edge ? find(s, d->gid[i]) : -1;
+            long k = s->edge ? find_next(s, &at[home_of(run, t, d, i)], d->gid[i]) : -1;
             memcpy(v->fixed + 3 * v->nfixed, d->xyz + 3 * i, 3 * sizeof *v->fixed);
             if (v->fixed_edge)
                 v->fixed_edge[v->nfixed] = k >= 0 ? s->edge[k] : 0;
@@ -186,18 +206,25 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
     double blind_from = run->halo - run->res->radius_estimate;
-    size_t ncand = 0, nfixed = 0;
-    for (size_t i = 0; i < v->d.n; i++) {
+    size_t ncand = 0, nfixed = 0, ntiles = (size_t)run->plan.ntiles;
+    cursors at = {calloc(ntiles, sizeof *at.store), calloc(ntiles, sizeof *at.unknown)};
+    int rc = at.store && at.unknown ? 0 : -1;
+    for (size_t i = 0; rc == 0 && i < v->d.n; i++) {
         const double *x = v->d.xyz + 3 * i;
-        uint8_t c = v->cls[i] = classify(run, pc, t, &v->d, i);
+        uint8_t c = v->cls[i] = classify(run, pc, t, &v->d, i, &at);
         ncand += (c & CANDIDATE) != 0;
         nfixed += c == FIXED;
+        v->theirs += (c & THEIRS) != 0;
         v->blind[i] = v->d.halo[i] && wpd_tile_distance2(tile, x) >= blind_from * blind_from;
         v->wanted[i] = !v->d.halo[i] || (c & THEIRS);
     }
-    if (fill_lists(run, t, v, ncand, nfixed))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    return 0;
+    if (rc == 0) {
+        memset(at.store, 0, ntiles * sizeof *at.store);
+        rc = fill_lists(run, t, v, ncand, nfixed, at.store);
+    }
+    free(at.store);
+    free(at.unknown);
+    return rc ? wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t) : 0;
 }
 
 /* Tile t's new state: its certain kept own points join its samples, its
@@ -299,7 +326,7 @@ static size_t walk_theirs(const wpd_run *run, const view *v, size_t nkept, size_
 static int record_theirs(const wpd_run *run, const view *v, size_t nkept, size_t nunknown,
                          foreign *f)
 {
-    size_t m = walk_theirs(run, v, nkept, nunknown, f);
+    size_t m = v->theirs ? walk_theirs(run, v, nkept, nunknown, f) : 0;
     if (m == 0)
         return 0;
     f->gid = malloc(m * sizeof *f->gid);
