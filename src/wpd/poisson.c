@@ -248,12 +248,15 @@ static uint32_t try_decide(pass_state *ps, uint32_t t)
                             (ps->any_half && (kind[s] & KIND_RADIUS) == KIND_HALF ? dep_half2
                                                                                   : dep_full2))
                         continue;
-                    int earlier = ps->prio[s] < pt;
-                    if (status == UNKNOWN || (kind[s] & KIND_BLIND)) {
+                    /* An undecided slot of another band that is not lazy
+                     * comes later: bands run in priority order. */
+                    uint8_t ks = kind[s];
+                    if (status == UNKNOWN || (ks & KIND_BLIND)) {
+                        int earlier = ps->prio[s] < pt;
                         tainted |= earlier;
                         if (status == UNKNOWN || earlier)
                             continue;
-                    } else if (earlier && (st == waiting || (kind[s] & KIND_LAZY))) {
+                    } else if ((st == waiting || (ks & KIND_LAZY)) && ps->prio[s] < pt) {
                         /* Undecided slots of earlier bands are lazy ones
                          * left for decision on demand: they block too.
                          * (Collecting every blocker of a scan at once, even
