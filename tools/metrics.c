@@ -8,6 +8,7 @@
 #include "core/pca.h"
 #include "core/voronoi.h"
 #include "io/cloud.h"
+#include "io/reader.h"
 
 #include <getopt.h>
 #include <math.h>
@@ -570,6 +571,7 @@ int wpd_metrics_main(int argc, char **argv)
                 "(see 'wpd metrics --help')\n", argc - optind, argc - optind == 1 ? "" : "s");
         return WPD_E_USAGE;
     }
+    wpd_reader_print_warnings((const char *const *)argv + optind, 2, "metrics", stderr);
     wpd_error err = {0};
     if (run(argv[optind], argv[optind + 1], json, &err)) {
         fprintf(stderr, "wpd metrics: %s\n", err.msg[0] ? err.msg : "failed");

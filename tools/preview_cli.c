@@ -2,6 +2,7 @@
  * usage text, messages and exit statuses.
  */
 #include "preview.h"
+#include "io/reader.h"
 
 #include <getopt.h>
 #include <stdio.h>
@@ -86,6 +87,8 @@ int wpd_preview_main(int argc, char **argv)
     const char *const *paths = (const char *const *)argv + optind;
     wpd_error err = {0};
     wpd_preview_summary sum;
+    if (!quiet)
+        wpd_reader_print_warnings(paths, n, "preview", stderr);
     if (wpd_preview_write(paths, n, out, &opt, &sum, &err)) {
         fprintf(stderr, "wpd preview: %s\n", err.msg[0] ? err.msg : "failed");
         return err.code ? (int)err.code : WPD_E_IO;

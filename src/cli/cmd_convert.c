@@ -55,6 +55,7 @@ static int convert(char **inputs, int n, const char *output, wpd_write_options *
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, n, err);
     if (!cloud)
         return -1;
+    wpd_cloud_print_warnings(cloud, "convert", stderr);
     const wpd_header *in = wpd_cloud_header(cloud, 0);
     wpd_bounds bounds = {0};
     /* LAS output from PLY needs the bounds to choose scale and offset. */

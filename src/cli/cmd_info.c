@@ -1,7 +1,9 @@
 /* cmd_info.c - `wpd info FILE...`: what a file holds, as text or JSON. */
 #include "cli/commands.h"
 #include "common/json.h"
+#include "common/printable.h"
 #include "io/cloud.h"
+#include "io/las.h"
 #include "io/reader.h"
 
 #include <getopt.h>
@@ -13,7 +15,11 @@ static const char *usage_text =
     "Prints each file's format, version, point format, point count, bounds,\n"
     "dimensions (name, type, byte offset) and VLRs (LAS) or elements and\n"
     "comments (PLY). Reads every point to report the finite count and the\n"
-    "bounds of the points, unless --header-only.\n"
+    "bounds of the points, unless --header-only. Text from the file is shown\n"
+    "with bytes that are not printable ASCII as \\xNN. What the file bends in\n"
+    "its format (and, with the points read, LAS header bounds or return counts\n"
+    "that disagree with the points) is reported as warnings on stderr and, with\n"
+    "--json, in each file's \"warnings\".\n"
     "  --json         one JSON document: {\"files\": [ ... ]}\n"
     "  --header-only  do not read the points\n";
 
@@ -21,16 +27,21 @@ typedef struct info_options {
     int json, header_only;
 } info_options;
 
-/* Finite points and their bounds, from one streaming pass. */
-static int scan_points(wpd_reader *r, wpd_bounds *b, wpd_error *err)
+/* Finite points, their bounds and (LAS) return numbers, from one
+ * streaming pass. */
+static int scan_points(wpd_reader *r, wpd_bounds *b, uint64_t by_return[16], wpd_error *err)
 {
+    const wpd_header *h = wpd_reader_header(r);
     wpd_batch batch;
-    if (wpd_batch_init(&batch, 65536, wpd_reader_header(r)->schema.record_size))
+    if (wpd_batch_init(&batch, 65536, h->schema.record_size))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     wpd_bounds_reset(b);
     long got;
-    while ((got = wpd_reader_read(r, &batch, err)) > 0)
+    while ((got = wpd_reader_read(r, &batch, err)) > 0) {
         wpd_bounds_add(b, batch.xyz, batch.n);
+        if (h->format == WPD_FMT_LAS)
+            wpd_las_tally_returns(h, batch.records, batch.n, by_return);
+    }
     wpd_batch_free(&batch);
     return got < 0 ? -1 : 0;
 }
@@ -50,9 +61,13 @@ static void text_bounds(const char *label, const double *lo, const double *hi)
 static void text_vlrs(const char *label, const wpd_vlr *v, uint32_t n)
 {
     printf("  %s: %u\n", label, n);
-    for (uint32_t i = 0; i < n; i++)
-        printf("    %-16s %5u  %8llu bytes  %s\n", v[i].user_id, v[i].record_id,
-               (unsigned long long)v[i].length, v[i].description);
+    for (uint32_t i = 0; i < n; i++) {
+        char user[WPD_PRINTABLE_SIZE(16)], text[WPD_PRINTABLE_SIZE(32)];
+        printf("    %-16s %5u  %8llu bytes  %s\n",
+               wpd_printable(user, sizeof user, v[i].user_id), v[i].record_id,
+               (unsigned long long)v[i].length,
+               wpd_printable(text, sizeof text, v[i].description));
+    }
 }
 
 static void text_schema(const wpd_schema *s)
@@ -95,8 +110,10 @@ static void print_text(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
     if (h->format == WPD_FMT_LAS) {
         text_vlrs("vlrs", h->las.vlrs, h->las.nvlr);
         text_vlrs("evlrs", h->las.evlrs, h->las.nevlr);
-        printf("  system id:        %s\n  software:         %s\n", h->las.system_id,
-               h->las.software);
+        char system[WPD_PRINTABLE_SIZE(32)], software[WPD_PRINTABLE_SIZE(32)];
+        printf("  system id:        %s\n  software:         %s\n",
+               wpd_printable(system, sizeof system, h->las.system_id),
+               wpd_printable(software, sizeof software, h->las.software));
     } else {
         for (uint32_t i = 0; i < h->ply.nelements; i++)
             printf("  element:          %s %llu (%u properties%s)\n", h->ply.elements[i].name,
@@ -173,7 +190,19 @@ static void json_strings(const char *key, char *const *s, uint32_t n)
     putchar(']');
 }
 
-static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t dropped, int first)
+static void json_warnings(const wpd_warnings *w)
+{
+    fputs(", \"warnings\": [", stdout);
+    for (uint32_t i = 0; i < w->n; i++) {
+        if (i)
+            fputs(", ", stdout);
+        wpd_json_string(stdout, w->line[i]);
+    }
+    putchar(']');
+}
+
+static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t dropped,
+                       const wpd_warnings *w, int first)
 {
     fputs(first ? "\n  {\"path\": " : ",\n  {\"path\": ", stdout);
     wpd_json_string(stdout, h->path);
@@ -208,6 +237,7 @@ static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
         json_strings("obj_info", h->ply.obj_info, h->ply.nobj_info);
     }
     json_schema(&h->schema);
+    json_warnings(w);
     putchar('}');
 }
 
@@ -216,14 +246,20 @@ static int info_one(const char *path, const info_options *opt, int first, wpd_er
     wpd_reader *r = wpd_reader_open(path, err);
     if (!r)
         return -1;
+    const wpd_header *h = wpd_reader_header(r);
     wpd_bounds b;
-    int rc = opt->header_only ? 0 : scan_points(r, &b, err);
+    uint64_t by_return[16] = {0};
+    int rc = opt->header_only ? 0 : scan_points(r, &b, by_return, err);
     if (rc == 0) {
         const wpd_bounds *pb = opt->header_only ? NULL : &b;
+        wpd_warnings w = h->warnings;
+        if (pb)
+            wpd_las_check_header_against_points(h, pb, by_return, &w);
+        wpd_warnings_print(stderr, "info", &w);
         if (opt->json)
-            print_json(wpd_reader_header(r), pb, wpd_reader_dropped(r), first);
+            print_json(h, pb, wpd_reader_dropped(r), &w, first);
         else
-            print_text(wpd_reader_header(r), pb, wpd_reader_dropped(r));
+            print_text(h, pb, wpd_reader_dropped(r));
     }
     wpd_reader_close(r);
     return rc;

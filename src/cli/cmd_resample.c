@@ -409,6 +409,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err);
     if (!cloud)
         return -1;
+    if (!o->quiet)
+        wpd_cloud_print_warnings(cloud, "resample", stderr);
     uint64_t target;
     int rc = -1;
     wpd_selection sel = {0};

@@ -8,7 +8,7 @@
 /* Messages quote bytes from input files (VLR user ids, PLY header words,
  * ascii tokens): control characters there would break the one-line error
  * promise or drive the terminal, so they are shown as '?'. */
-static void one_line(char *msg)
+void wpd_one_line(char *msg)
 {
     for (unsigned char *p = (unsigned char *)msg; *p; p++)
         if (*p < 0x20 || *p == 0x7f)
@@ -23,7 +23,7 @@ int wpd_fail(wpd_error *err, wpd_errcode code, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(err->msg, sizeof err->msg, fmt, ap);
     va_end(ap);
-    one_line(err->msg);
+    wpd_one_line(err->msg);
     err->code = code;
     return -1;
 }
@@ -42,7 +42,7 @@ int wpd_fail_errno(wpd_error *err, const char *fmt, ...)
                           ? "disk full or file size limit reached"
                           : strerror(saved);
     snprintf(err->msg, sizeof err->msg, "%.300s: %s", what, why);
-    one_line(err->msg);
+    wpd_one_line(err->msg);
     err->code = saved == ENOMEM ? WPD_E_MEMORY : WPD_E_IO;
     return -1;
 }

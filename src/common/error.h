@@ -37,6 +37,10 @@ int wpd_fail(wpd_error *err, wpd_errcode code, const char *fmt, ...)
 int wpd_fail_errno(wpd_error *err, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 
+/* Replaces every control character of msg (newlines included) by '?', so
+ * that a message quoting bytes from a file stays one harmless line. */
+void wpd_one_line(char *msg);
+
 /* Clears err to WPD_OK and an empty message. */
 void wpd_error_clear(wpd_error *err);
 

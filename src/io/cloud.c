@@ -280,3 +280,9 @@ void wpd_cloud_close(wpd_cloud *c)
     free(c->delivered);
     free(c);
 }
+
+void wpd_cloud_print_warnings(const wpd_cloud *c, const char *command, FILE *f)
+{
+    for (int i = 0; i < c->nfiles; i++)
+        wpd_warnings_print(f, command, &c->headers[i].warnings);
+}

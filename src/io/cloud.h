@@ -9,6 +9,8 @@
 #ifndef WPD_CLOUD_H
 #define WPD_CLOUD_H
 
+#include <stdio.h>
+
 #include "common/error.h"
 #include "io/batch.h"
 #include "io/schema.h"
@@ -72,6 +74,11 @@ uint64_t wpd_cloud_dropped(const wpd_cloud *c);
 int wpd_cloud_bounds(wpd_cloud *c, wpd_bounds *out, wpd_error *err);
 
 void wpd_cloud_close(wpd_cloud *c);
+
+/* Prints the warnings of every file's header (what its reader read despite
+ * the specification, see common/warnings.h) on f, file by file, so that
+ * each file's are printed once. For the command line layer. */
+void wpd_cloud_print_warnings(const wpd_cloud *c, const char *command, FILE *f);
 
 /* The box the headers declare: 1 with out set (union of the boxes, count =
  * the declared records) when every file declares one (LAS), else 0. */

@@ -3,6 +3,8 @@
 #define WPD_LAS_H
 
 #include "common/error.h"
+#include "common/warnings.h"
+#include "io/cloud.h"
 #include "io/schema.h"
 
 /* Standard record size of point data record format pdrf (0..10), 0 if unknown. */
@@ -11,8 +13,23 @@ uint16_t wpd_las_pdrf_size(int pdrf);
 /* Builds h->schema from h->las: the PDRF's standard dimensions, X/Y/Z scaled
  * with las.scale/las.offset, then the extra bytes (record_length minus the
  * standard size) described by the Extra Bytes VLR (LASF_Spec/4) in las.vlrs
- * or as unnamed bytes. The same schema the LAS reader produces. Returns 0, or
- * -1 with err set (naming h->path) for an unknown PDRF or a bad descriptor. */
+ * or as unnamed bytes. The same schema the LAS reader produces. An Extra
+ * Bytes VLR that does not fit the records is ignored with a warning in
+ * h->warnings. Returns 0, or -1 with err set (naming h->path) for an unknown
+ * PDRF or a record length too short for it. */
 int wpd_las_schema_from_info(wpd_header *h, wpd_error *err);
+
+/* Adds the return numbers of the n records at rec (laid out as h says) to
+ * by_return (index = return number; 0 counts the invalid return number 0). */
+void wpd_las_tally_returns(const wpd_header *h, const uint8_t *rec, size_t n,
+                           uint64_t by_return[16]);
+
+/* For `wpd info`, which reads every point: appends a warning to w when the
+ * header bounds of LAS file h differ from b, the bounds of its points, by
+ * more than one step of the coordinate grid, and one when its points-by-
+ * return counts differ from by_return (as tallied by wpd_las_tally_returns).
+ * Nothing for other formats. */
+void wpd_las_check_header_against_points(const wpd_header *h, const wpd_bounds *b,
+                                         const uint64_t by_return[16], wpd_warnings *w);
 
 #endif

@@ -74,4 +74,12 @@ static inline void las_put_u32(uint8_t *p, uint32_t v) { memcpy(p, &v, 4); }
 static inline void las_put_u64(uint8_t *p, uint64_t v) { memcpy(p, &v, 8); }
 static inline void las_put_f64(uint8_t *p, double v) { memcpy(p, &v, 8); }
 
+/* Copies a fixed-width text field (every byte, also those after a NUL) into
+ * dst and terminates it: dst must hold width + 1 bytes. */
+static inline void las_copy_text(char *dst, const uint8_t *src, size_t width)
+{
+    memcpy(dst, src, width);
+    dst[width] = '\0';
+}
+
 #endif

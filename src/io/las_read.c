@@ -46,13 +46,6 @@ static int read_at(wpd_reader *r, void *buf, size_t len, uint64_t off, const cha
     return 0;
 }
 
-/* Copies a fixed-width, possibly unterminated text field into a C string. */
-static void copy_text(char *dst, const uint8_t *src, size_t width)
-{
-    memcpy(dst, src, width);
-    dst[width] = '\0';
-}
-
 /* ---- header ---- */
 
 /* Fills the fixed header fields of las from the header bytes h (at least the
@@ -64,8 +57,8 @@ static void parse_header_fields(wpd_las_info *las, const uint8_t *h)
     memcpy(las->guid, h + LAS_OFF_GUID, 16);
     las->version_major = h[LAS_OFF_VERSION_MAJOR];
     las->version_minor = h[LAS_OFF_VERSION_MINOR];
-    copy_text(las->system_id, h + LAS_OFF_SYSTEM_ID, 32);
-    copy_text(las->software, h + LAS_OFF_SOFTWARE, 32);
+    las_copy_text(las->system_id, h + LAS_OFF_SYSTEM_ID, 32);
+    las_copy_text(las->software, h + LAS_OFF_SOFTWARE, 32);
     las->creation_day = las_get_u16(h + LAS_OFF_DAY);
     las->creation_year = las_get_u16(h + LAS_OFF_YEAR);
     las->header_size = las_get_u16(h + LAS_OFF_HEADER_SIZE);
@@ -84,18 +77,37 @@ static void parse_header_fields(wpd_las_info *las, const uint8_t *h)
         las->points_by_return[i] = las_get_u32(h + LAS_OFF_LEGACY_BY_RETURN + 4 * i);
     if (las->version_minor >= 3)
         las->waveform_start = las_get_u64(h + LAS_OFF_WAVEFORM_START);
-    if (las->version_minor >= 4) {
+    if (las->version_minor >= 4)
         las->nevlr = las_get_u32(h + LAS_OFF_NEVLR);
-        /* The 64-bit counts are authoritative in 1.4 (the legacy ones are 0
-         * for PDRF 6-10 or more than 2^32 points). A 64-bit count of 0 next
-         * to a non-zero legacy count is a known writer bug: keep the legacy. */
-        uint64_t count = las_get_u64(h + LAS_OFF_COUNT);
-        if (count || !las->point_count) {
-            las->point_count = count;
-            for (int i = 0; i < 15; i++)
-                las->points_by_return[i] = las_get_u64(h + LAS_OFF_BY_RETURN + 8 * i);
-        }
+}
+
+/* LAS 1.4 has a 64-bit point count next to the legacy 32-bit one, which is
+ * 0 for PDRF 6-10, for more than 2^32 points, and whenever the writer does
+ * not keep legacy compatibility: 0 there is no oddity. The 64-bit count is
+ * the authority, as in PDAL and laspy; a legacy count that disagrees is
+ * reported. A 64-bit count of 0 next to a legacy one is a known writer bug:
+ * the legacy count is used, with a warning. */
+static void choose_point_count(wpd_reader *r, const uint8_t *h)
+{
+    wpd_las_info *las = &r->hdr.las;
+    if (las->version_minor < 4)
+        return;
+    uint64_t legacy = las->point_count, count = las_get_u64(h + LAS_OFF_COUNT);
+    if (!count && legacy) {
+        wpd_warn(&r->hdr.warnings,
+                 "%s: number_of_point_records is 0 but legacy_number_of_point_records is "
+                 "%llu; the legacy count is used",
+                 r->hdr.path, (unsigned long long)legacy);
+        return;
     }
+    if (legacy && legacy != count)
+        wpd_warn(&r->hdr.warnings,
+                 "%s: legacy_number_of_point_records %llu disagrees with "
+                 "number_of_point_records %llu; the 64-bit count is used",
+                 r->hdr.path, (unsigned long long)legacy, (unsigned long long)count);
+    las->point_count = count;
+    for (int i = 0; i < 15; i++)
+        las->points_by_return[i] = las_get_u64(h + LAS_OFF_BY_RETURN + 8 * i);
 }
 
 /* Start of the first EVLR as stored in a 1.4 header (0 otherwise). */
@@ -129,13 +141,13 @@ static int fail_compressed(wpd_reader *r, int copc, wpd_error *err)
                     r->hdr.path);
 }
 
-/* Checks version, header size, point offset, PDRF, record length, scale and
- * offset (which must give finite coordinates for every int32 value). */
-static int check_header_fields(wpd_reader *r, wpd_error *err)
+/* Checks header size (at least standard bytes), point offset, PDRF, record
+ * length, scale and offset (which must give finite coordinates for every
+ * int32 value). */
+static int check_header_fields(wpd_reader *r, uint16_t standard, wpd_error *err)
 {
     const wpd_las_info *las = &r->hdr.las;
     const char *path = r->hdr.path;
-    uint16_t standard = las_standard_header_size(las->version_minor);
     if (las->header_size < standard)
         return wpd_fail(err, WPD_E_INPUT,
                         "%s: header_size %u is smaller than the %u bytes of a LAS %u.%u header",
@@ -173,6 +185,26 @@ static int check_header_fields(wpd_reader *r, wpd_error *err)
     return 0;
 }
 
+/* The header size a LAS 1.<minor> file must have. A 1.3 header of the 227
+ * bytes of 1.0-1.2 lacks only start_of_waveform_data_packet_record, which
+ * no point needs: LAStools reads such files with a warning, and so does
+ * wpd, taking the field as 0. The bytes past header_size are then VLRs, so
+ * they are zeroed in h, the header as read. */
+static uint16_t required_header_size(wpd_reader *r, uint8_t *h)
+{
+    uint8_t minor = h[LAS_OFF_VERSION_MINOR];
+    uint16_t standard = las_standard_header_size(minor);
+    uint16_t size = las_get_u16(h + LAS_OFF_HEADER_SIZE);
+    if (minor != 3 || size < LAS_HEADER_SIZE_10 || size >= standard)
+        return standard;
+    wpd_warn(&r->hdr.warnings,
+             "%s: header_size %u is smaller than the %u bytes of a LAS 1.3 header; read as "
+             "a header without start_of_waveform_data_packet_record",
+             r->hdr.path, size, standard);
+    memset(h + size, 0, standard - size);
+    return size;
+}
+
 /* Reads and validates the fixed header, the header tail and the compression
  * markers. Sets *evlr_start to the 1.4 EVLR start field. */
 static int read_header(wpd_reader *r, uint64_t *evlr_start, wpd_error *err)
@@ -194,7 +226,7 @@ static int read_header(wpd_reader *r, uint64_t *evlr_start, wpd_error *err)
         return wpd_fail(err, WPD_E_INPUT,
                         "%s: unsupported LAS version %u.%u (1.0 to 1.4 are supported)", path,
                         las->version_major, las->version_minor);
-    uint16_t standard = las_standard_header_size(las->version_minor);
+    uint16_t standard = required_header_size(r, h);
     if (have < standard)
         return wpd_fail(err, WPD_E_INPUT,
                         "%s: truncated header: the file has %llu bytes, a LAS %u.%u header "
@@ -202,13 +234,14 @@ static int read_header(wpd_reader *r, uint64_t *evlr_start, wpd_error *err)
                         path, (unsigned long long)r->hdr.file_size, las->version_major,
                         las->version_minor, standard);
     parse_header_fields(las, h);
+    choose_point_count(r, h);
     *evlr_start = evlr_start_field(las, h);
     /* LAZ marks compression in the top bits of the PDRF byte. */
     if (las->pdrf & 0xC0) {
         las->nvlr = las_get_u32(h + LAS_OFF_NVLR);
         return fail_compressed(r, first_vlr_is_copc(r), err);
     }
-    if (check_header_fields(r, err))
+    if (check_header_fields(r, standard, err))
         return -1;
     las->extra_bytes = (uint16_t)(las->record_length - las_pdrf_size[las->pdrf]);
     las->header_tail_len = (uint32_t)(las->header_size - standard);
@@ -227,10 +260,10 @@ static int read_header(wpd_reader *r, uint64_t *evlr_start, wpd_error *err)
 static void parse_vlr_header(wpd_vlr *v, const uint8_t *vh, int extended)
 {
     v->reserved = las_get_u16(vh);
-    copy_text(v->user_id, vh + 2, 16);
+    las_copy_text(v->user_id, vh + 2, 16);
     v->record_id = las_get_u16(vh + 18);
     v->length = extended ? las_get_u64(vh + 20) : las_get_u16(vh + 20);
-    copy_text(v->description, vh + (extended ? 28 : 22), 32);
+    las_copy_text(v->description, vh + (extended ? 28 : 22), 32);
     v->data = NULL;
 }
 
@@ -244,9 +277,10 @@ typedef struct vlr_area {
 
 /* Walks count (E)VLR headers through area, checking that each header and
  * payload lies inside it. With out == NULL only validates; otherwise also
- * fills out[0..count) and loads the payloads (already validated). */
+ * fills out[0..count) and loads the payloads (already validated). Sets
+ * *stop (if not NULL) to the first byte after the last record. */
 static int walk_vlrs(wpd_reader *r, const vlr_area *a, uint32_t count, wpd_vlr *out,
-                     wpd_error *err)
+                     uint64_t *stop, wpd_error *err)
 {
     const char *path = r->hdr.path;
     size_t hsize = a->extended ? LAS_EVLR_HEADER_SIZE : LAS_VLR_HEADER_SIZE;
@@ -281,32 +315,65 @@ static int walk_vlrs(wpd_reader *r, const vlr_area *a, uint32_t count, wpd_vlr *
         }
         pos += v.length;
     }
+    if (stop)
+        *stop = pos;
     return 0;
 }
 
-/* Validates count (E)VLRs in area, then loads them into *list. */
+/* Validates count (E)VLRs in area, then loads them into *list; *stop as in
+ * walk_vlrs. */
 static int load_vlrs(wpd_reader *r, const vlr_area *a, uint32_t count, wpd_vlr **list,
-                     wpd_error *err)
+                     uint64_t *stop, wpd_error *err)
 {
     *list = NULL;
+    *stop = a->start;
     if (!count)
         return 0;
     /* The first walk bounds count by the file contents before allocating. */
-    if (walk_vlrs(r, a, count, NULL, err))
+    if (walk_vlrs(r, a, count, NULL, NULL, err))
         return -1;
     if (!(*list = calloc(count, sizeof **list)))
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", r->hdr.path);
-    return walk_vlrs(r, a, count, *list, err);
+    return walk_vlrs(r, a, count, *list, stop, err);
 }
 
+/* Bytes between the last VLR and the point data: the LAS 1.0 start
+ * signature, or bytes that later versions do not forbid (ASPRS LAS issue
+ * #91: TerraScan writes 2, GeoCue up to thousands). Kept, so that LAS -> LAS
+ * writes them back, as laspy (extra_vlr_bytes) and LAStools
+ * (user_data_after_header) do; beyond this size only with a warning. */
+#define LAS_VLR_TAIL_MAX (16u << 20)
+
+static int keep_vlr_tail(wpd_reader *r, uint64_t vlr_end, wpd_error *err)
+{
+    wpd_las_info *las = &r->hdr.las;
+    uint64_t len = las->offset_to_points - vlr_end;
+    if (!len)
+        return 0;
+    if (len > LAS_VLR_TAIL_MAX) {
+        wpd_warn(&r->hdr.warnings,
+                 "%s: the %llu bytes between the VLRs and the point data are not carried "
+                 "over (more than %u)",
+                 r->hdr.path, (unsigned long long)len, LAS_VLR_TAIL_MAX);
+        return 0;
+    }
+    if (!(las->vlr_tail = malloc(len)))
+        return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", r->hdr.path);
+    las->vlr_tail_len = (uint32_t)len;
+    return read_at(r, las->vlr_tail, len, vlr_end, "bytes before the point data", err);
+}
+
+/* VLRs: strict, since a VLR count or length that runs into the point data
+ * (PDAL's bad_vlr_count.las) leaves it unclear where anything is. */
 static int read_vlrs(wpd_reader *r, wpd_error *err)
 {
     wpd_las_info *las = &r->hdr.las;
     vlr_area a = {"VLR", 0, las->header_size, las->offset_to_points,
                   "the start of the point data"};
     uint32_t n = las->nvlr;
+    uint64_t vlr_end;
     las->nvlr = 0; /* owns nothing until loaded */
-    if (load_vlrs(r, &a, n, &las->vlrs, err)) {
+    if (load_vlrs(r, &a, n, &las->vlrs, &vlr_end, err)) {
         las->nvlr = las->vlrs ? n : 0; /* lets wpd_header_free release a partial list */
         return -1;
     }
@@ -318,39 +385,107 @@ static int read_vlrs(wpd_reader *r, wpd_error *err)
         if (!strcmp(v->user_id, "laszip encoded")) /* record 22204 */
             return fail_compressed(r, 0, err);
     }
+    return keep_vlr_tail(r, vlr_end, err);
+}
+
+/* Where the EVLRs are said to start: in 1.4 start_of_first_evlr with the
+ * EVLR count; in 1.3 the only EVLR is the waveform data packet record at
+ * start_of_waveform_data_packet_record. */
+typedef struct evlr_place {
+    uint64_t start;
+    uint32_t count;
+    const char *field;      /* the header field that gives start */
+    const char *what;       /* what is lost when they cannot be read */
+} evlr_place;
+
+static evlr_place evlr_place_of(const wpd_las_info *las, uint64_t evlr_start)
+{
+    if (las->version_minor == 3)
+        return (evlr_place){las->waveform_start, las->waveform_start ? 1 : 0,
+                            "start_of_waveform_data_packet_record", "the waveform data are"};
+    return (evlr_place){evlr_start, las->nevlr, "start_of_first_evlr", "the EVLRs are"};
+}
+
+/* No point needs an EVLR (wpd reads Extra Bytes descriptions from the VLRs
+ * only), so EVLRs that are not where the header says (a waveform pointer
+ * past the end because the waveforms were kept in another file, an EVLR
+ * start of 0 as PDAL before 2.1 wrote it, EVLRs that run past the end) are
+ * ignored with a warning. A start inside the point data stays an error:
+ * either it or the point count is wrong, and with a wrong count the points
+ * read would include EVLR bytes. */
+static int read_evlrs(wpd_reader *r, uint64_t evlr_start, uint64_t points_end,
+                      uint64_t *evlr_bytes, wpd_error *err)
+{
+    wpd_las_info *las = &r->hdr.las;
+    evlr_place e = evlr_place_of(las, evlr_start);
+    const char *path = r->hdr.path;
+    uint64_t size = r->hdr.file_size;
+    las->nevlr = 0;
+    *evlr_bytes = 0;
+    if (!e.count)
+        return 0;
+    if (e.start >= las->offset_to_points && e.start < points_end)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: %s %llu lies inside the point data (bytes %u to %llu): either it "
+                        "or the point count is wrong",
+                        path, e.field, (unsigned long long)e.start, las->offset_to_points,
+                        (unsigned long long)points_end);
+    if (e.start < points_end || e.start > size) {
+        wpd_warn(&r->hdr.warnings,
+                 "%s: %s %llu is not in the file after the point data (bytes %llu to %llu); "
+                 "%s ignored (not carried over)",
+                 path, e.field, (unsigned long long)e.start, (unsigned long long)points_end,
+                 (unsigned long long)size, e.what);
+        return 0;
+    }
+    vlr_area a = {"EVLR", 1, e.start, size, "the end of the file"};
+    wpd_error why = {0};
+    if (walk_vlrs(r, &a, e.count, NULL, NULL, &why)) {
+        if (why.code != WPD_E_INPUT) { /* an I/O error is not the file's oddity */
+            if (err)
+                *err = why;
+            return -1;
+        }
+        wpd_warn(&r->hdr.warnings, "%s; %s ignored (not carried over)", why.msg, e.what);
+        return 0;
+    }
+    uint64_t stop;
+    if (load_vlrs(r, &a, e.count, &las->evlrs, &stop, err)) {
+        las->nevlr = las->evlrs ? e.count : 0;
+        return -1;
+    }
+    las->nevlr = e.count;
+    *evlr_bytes = stop - e.start;
     return 0;
 }
 
-/* EVLRs: in 1.4 from start_of_first_evlr and the EVLR count; in 1.3 the only
- * EVLR is the waveform data packet record at start_of_waveform_data. They
- * must follow the point data. */
-static int read_evlrs(wpd_reader *r, uint64_t evlr_start, uint64_t points_end, wpd_error *err)
+/* LAS 1.4 keeps start_of_waveform_data_packet_record next to the EVLR
+ * fields; wpd does not need it (LAS -> LAS writes its own), so a value that
+ * cannot be right is only reported. */
+static void check_waveform_pointer(wpd_reader *r, uint64_t points_end)
 {
-    wpd_las_info *las = &r->hdr.las;
-    uint32_t n = las->nevlr;
-    uint64_t start = evlr_start;
-    const char *field = "start_of_first_evlr";
-    if (las->version_minor == 3) {
-        n = las->waveform_start ? 1 : 0;
-        start = las->waveform_start;
-        field = "start_of_waveform_data_packet_record";
-    }
-    las->nevlr = 0;
-    if (!n)
-        return 0;
-    if (start < points_end || start > r->hdr.file_size)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: %s %llu is outside the file after the point data (bytes %llu to "
-                        "%llu)",
-                        r->hdr.path, field, (unsigned long long)start,
-                        (unsigned long long)points_end, (unsigned long long)r->hdr.file_size);
-    vlr_area a = {"EVLR", 1, start, r->hdr.file_size, "the end of the file"};
-    if (load_vlrs(r, &a, n, &las->evlrs, err)) {
-        las->nevlr = las->evlrs ? n : 0;
-        return -1;
-    }
-    las->nevlr = n;
-    return 0;
+    const wpd_las_info *las = &r->hdr.las;
+    uint64_t at = las->waveform_start;
+    if (las->version_minor < 4 || !at || (at >= points_end && at < r->hdr.file_size))
+        return;
+    wpd_warn(&r->hdr.warnings,
+             "%s: start_of_waveform_data_packet_record %llu is not in the file after the "
+             "point data (bytes %llu to %llu); ignored",
+             r->hdr.path, (unsigned long long)at, (unsigned long long)points_end,
+             (unsigned long long)r->hdr.file_size);
+}
+
+/* Bytes after the point records that no EVLR claims: garbage some writers
+ * leave, or records the point count does not cover. Never read as points. */
+static void check_unclaimed_bytes(wpd_reader *r, uint64_t points_end, uint64_t evlr_bytes)
+{
+    uint64_t after = r->hdr.file_size - points_end;
+    if (after <= evlr_bytes)
+        return;
+    wpd_warn(&r->hdr.warnings,
+             "%s: %llu bytes after the %llu point records belong to no record; ignored",
+             r->hdr.path, (unsigned long long)(after - evlr_bytes),
+             (unsigned long long)r->hdr.las.point_count);
 }
 
 /* The point records must fit between offset_to_point_data and the end. */
@@ -373,235 +508,6 @@ static int check_point_data(wpd_reader *r, uint64_t *points_end, wpd_error *err)
     }
     *points_end = las->offset_to_points + count * len;
     return 0;
-}
-
-/* ---- schema ---- */
-
-typedef struct std_dim {
-    const char *name;
-    wpd_type type;
-    uint8_t offset, bit_shift, bit_count;
-} std_dim;
-
-/* PDRF 0-5: the 20-byte core. */
-static const std_dim legacy_core[] = {
-    {"intensity", WPD_U16, 12, 0, 0},
-    {"return_number", WPD_U8, 14, 0, 3},
-    {"number_of_returns", WPD_U8, 14, 3, 3},
-    {"scan_direction_flag", WPD_U8, 14, 6, 1},
-    {"edge_of_flight_line", WPD_U8, 14, 7, 1},
-    {"classification", WPD_U8, 15, 0, 5},
-    {"synthetic", WPD_U8, 15, 5, 1},
-    {"key_point", WPD_U8, 15, 6, 1},
-    {"withheld", WPD_U8, 15, 7, 1},
-    {"scan_angle_rank", WPD_I8, 16, 0, 0},
-    {"user_data", WPD_U8, 17, 0, 0},
-    {"point_source_id", WPD_U16, 18, 0, 0},
-};
-
-/* PDRF 6-10: the 30-byte core (gps_time included). */
-static const std_dim extended_core[] = {
-    {"intensity", WPD_U16, 12, 0, 0},
-    {"return_number", WPD_U8, 14, 0, 4},
-    {"number_of_returns", WPD_U8, 14, 4, 4},
-    {"scan_direction_flag", WPD_U8, 15, 6, 1},
-    {"edge_of_flight_line", WPD_U8, 15, 7, 1},
-    {"classification", WPD_U8, 16, 0, 0},
-    {"synthetic", WPD_U8, 15, 0, 1},
-    {"key_point", WPD_U8, 15, 1, 1},
-    {"withheld", WPD_U8, 15, 2, 1},
-    {"overlap", WPD_U8, 15, 3, 1},
-    {"scanner_channel", WPD_U8, 15, 4, 2},
-    {"scan_angle", WPD_I16, 18, 0, 0},
-    {"user_data", WPD_U8, 17, 0, 0},
-    {"point_source_id", WPD_U16, 20, 0, 0},
-    {"gps_time", WPD_F64, 22, 0, 0},
-};
-
-/* Optional blocks, placed at a per-PDRF offset (offsets relative). */
-static const std_dim gps_block[] = {{"gps_time", WPD_F64, 0, 0, 0}};
-static const std_dim rgb_block[] = {
-    {"red", WPD_U16, 0, 0, 0}, {"green", WPD_U16, 2, 0, 0}, {"blue", WPD_U16, 4, 0, 0}};
-static const std_dim nir_block[] = {{"nir", WPD_U16, 0, 0, 0}};
-static const std_dim wave_block[] = {
-    {"wavepacket_index", WPD_U8, 0, 0, 0},
-    {"wavepacket_offset", WPD_U64, 1, 0, 0},
-    {"wavepacket_size", WPD_U32, 9, 0, 0},
-    {"return_point_wave_location", WPD_F32, 13, 0, 0},
-    {"x_t", WPD_F32, 17, 0, 0},
-    {"y_t", WPD_F32, 21, 0, 0},
-    {"z_t", WPD_F32, 25, 0, 0},
-};
-
-/* Byte offsets of the optional blocks per PDRF; 0 = absent. */
-static const uint8_t gps_at[LAS_MAX_PDRF + 1] = {0, 20, 0, 20, 20, 20, 0, 0, 0, 0, 0};
-static const uint8_t rgb_at[LAS_MAX_PDRF + 1] = {0, 0, 20, 28, 0, 28, 0, 30, 30, 0, 30};
-static const uint8_t nir_at[LAS_MAX_PDRF + 1] = {0, 0, 0, 0, 0, 0, 0, 0, 36, 0, 36};
-static const uint8_t wave_at[LAS_MAX_PDRF + 1] = {0, 0, 0, 0, 28, 34, 0, 0, 0, 30, 38};
-
-static void add_block(wpd_schema *s, const std_dim *d, size_t n, uint32_t base)
-{
-    for (size_t i = 0; i < n; i++) {
-        int k = wpd_schema_add(s, d[i].name, d[i].type, base + d[i].offset);
-        if (k >= 0) {
-            s->dims[k].bit_shift = d[i].bit_shift;
-            s->dims[k].bit_count = d[i].bit_count;
-        }
-    }
-}
-
-#define ADD_BLOCK(s, block, base) add_block(s, block, sizeof block / sizeof block[0], base)
-
-/* Makes name usable as a dimension name in every output format (no spaces
- * or control characters, not empty, unique in s) and writes it to out. */
-static void unique_dim_name(const wpd_schema *s, const char *name, uint32_t pos,
-                            char out[WPD_DIM_NAME_MAX])
-{
-    char base[WPD_DIM_NAME_MAX - 8];
-    size_t n = 0;
-    for (const char *p = name; *p && n + 1 < sizeof base; p++)
-        base[n++] = (*p > ' ' && *p < 0x7f) ? *p : '_';
-    base[n] = '\0';
-    if (!n)
-        snprintf(base, sizeof base, "extra_%u", pos);
-    snprintf(out, WPD_DIM_NAME_MAX, "%s", base);
-    /* At most WPD_MAX_DIMS names can clash, so k stays small. */
-    for (unsigned k = 2; wpd_schema_find(s, out) >= 0; k++)
-        snprintf(out, WPD_DIM_NAME_MAX, "%.39s_%u", base, k % 10000u);
-}
-
-static const wpd_type extra_type[10] = {WPD_U8,  WPD_I8,  WPD_U16, WPD_I16, WPD_U32,
-                                        WPD_I32, WPD_U64, WPD_I64, WPD_F32, WPD_F64};
-
-/* Adds the dimensions of Extra Bytes descriptor number index (0-based, at d)
- * at record offset pos; end = record length. Sets *used to the bytes it
- * covers. Data types 1-10 are scalars, 11-30 the deprecated 2- and
- * 3-element arrays (dims "name[0]" ...), 0 undocumented bytes (options =
- * their number; no dimension). Options bits 3/4: scale/offset valid. */
-static int add_extra_descriptor(wpd_header *h, const uint8_t *d, uint64_t index, uint32_t pos,
-                                uint32_t end, uint32_t *used, wpd_error *err)
-{
-    wpd_schema *s = &h->schema;
-    uint8_t data_type = d[2], options = d[3];
-    char name[33];
-    copy_text(name, d + 4, 32);
-    if (data_type > 30)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: Extra Bytes descriptor %llu (\"%s\") has unknown data_type %u",
-                        h->path, (unsigned long long)index + 1, name, data_type);
-    wpd_type t = data_type ? extra_type[(data_type - 1) % 10] : WPD_U8;
-    uint32_t elems = data_type ? (data_type - 1u) / 10u + 1u : 0;
-    uint32_t size = data_type ? elems * (uint32_t)wpd_type_size(t) : options;
-    if (size > end - pos)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: Extra Bytes descriptor %llu (\"%s\", %u bytes at record byte %u) "
-                        "runs past the %u-byte point record",
-                        h->path, (unsigned long long)index + 1, name, size, pos, end);
-    *used = size;
-    for (uint32_t e = 0; e < elems; e++) {
-        char elem_name[WPD_DIM_NAME_MAX + 8], dim_name[WPD_DIM_NAME_MAX];
-        if (elems > 1)
-            snprintf(elem_name, sizeof elem_name, "%s[%u]", name, e);
-        else
-            snprintf(elem_name, sizeof elem_name, "%s", name);
-        unique_dim_name(s, elem_name, pos, dim_name);
-        int k = wpd_schema_add(s, dim_name, t, pos + e * (uint32_t)wpd_type_size(t));
-        if (k < 0) /* schema full: the bytes stay in the record, unnamed */
-            return 0;
-        double scale = las_get_f64(d + 112 + 8 * e), add = las_get_f64(d + 136 + 8 * e);
-        if (options & 0x18) {
-            wpd_dim *dim = &s->dims[k];
-            dim->scaled = 1;
-            dim->scale = (options & 0x08) && isfinite(scale) && scale != 0 ? scale : 1.0;
-            dim->add = (options & 0x10) && isfinite(add) ? add : 0.0;
-        }
-    }
-    return 0;
-}
-
-/* Returns the Extra Bytes VLR, or NULL. */
-static const wpd_vlr *find_extra_bytes_vlr(const wpd_las_info *las)
-{
-    for (uint32_t i = 0; i < las->nvlr; i++)
-        if (!strcmp(las->vlrs[i].user_id, "LASF_Spec") && las->vlrs[i].record_id == 4)
-            return &las->vlrs[i];
-    return NULL;
-}
-
-/* Dimensions of the record bytes from start to end (the extra bytes): the
- * described ones, then one u8 per undescribed byte ("extra_byte_<k>", k
- * counted from the first extra byte). */
-static int add_extra_dims(wpd_header *h, uint32_t start, uint32_t end, wpd_error *err)
-{
-    const wpd_vlr *ebv = find_extra_bytes_vlr(&h->las);
-    uint32_t pos = start;
-    uint64_t ndesc = ebv ? ebv->length / LAS_EXTRA_BYTES_DESCRIPTOR_SIZE : 0;
-    uint32_t first_described = h->schema.ndims;
-    for (uint64_t i = 0; i < ndesc; i++) {
-        uint32_t used = 0;
-        if (add_extra_descriptor(h, ebv->data + i * LAS_EXTRA_BYTES_DESCRIPTOR_SIZE, i, pos,
-                                 end, &used, err))
-            return -1;
-        pos += used;
-    }
-    /* The generated names can clash only with a descriptor's name of the
-     * same form (found by fuzzing); only then is each one checked. */
-    int clash = 0;
-    for (uint32_t i = first_described; i < h->schema.ndims; i++)
-        clash |= !strncmp(h->schema.dims[i].name, "extra_byte_", 11);
-    for (; pos < end; pos++) {
-        char name[WPD_DIM_NAME_MAX], unique[WPD_DIM_NAME_MAX];
-        snprintf(name, sizeof name, "extra_byte_%u", pos - start);
-        if (clash)
-            unique_dim_name(&h->schema, name, pos, unique);
-        if (wpd_schema_add(&h->schema, clash ? unique : name, WPD_U8, pos) < 0)
-            break; /* schema full: the bytes stay in the record, unnamed */
-    }
-    return 0;
-}
-
-uint16_t wpd_las_pdrf_size(int pdrf)
-{
-    return pdrf >= 0 && pdrf <= LAS_MAX_PDRF ? las_pdrf_size[pdrf] : 0;
-}
-
-int wpd_las_schema_from_info(wpd_header *h, wpd_error *err)
-{
-    const wpd_las_info *las = &h->las;
-    wpd_schema *s = &h->schema;
-    uint8_t pdrf = las->pdrf;
-    if (pdrf > LAS_MAX_PDRF)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: unsupported point data record format %u (0 to %d are defined)",
-                        h->path, pdrf, LAS_MAX_PDRF);
-    if (las->record_length < las_pdrf_size[pdrf])
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: point record_length %u is smaller than the %u bytes of "
-                        "point data record format %u",
-                        h->path, las->record_length, las_pdrf_size[pdrf], pdrf);
-    memset(s, 0, sizeof *s);
-    s->record_size = las->record_length;
-    static const char *const xyz[3] = {"x", "y", "z"};
-    for (int i = 0; i < 3; i++) {
-        int k = wpd_schema_add(s, xyz[i], WPD_I32, 4u * (unsigned)i);
-        s->dims[k].scaled = 1;
-        s->dims[k].scale = las->scale[i];
-        s->dims[k].add = las->offset[i];
-    }
-    s->dim_x = 0, s->dim_y = 1, s->dim_z = 2;
-    if (pdrf >= 6)
-        ADD_BLOCK(s, extended_core, 0);
-    else
-        ADD_BLOCK(s, legacy_core, 0);
-    if (gps_at[pdrf])
-        ADD_BLOCK(s, gps_block, gps_at[pdrf]);
-    if (rgb_at[pdrf])
-        ADD_BLOCK(s, rgb_block, rgb_at[pdrf]);
-    if (nir_at[pdrf])
-        ADD_BLOCK(s, nir_block, nir_at[pdrf]);
-    if (wave_at[pdrf])
-        ADD_BLOCK(s, wave_block, wave_at[pdrf]);
-    return add_extra_dims(h, las_pdrf_size[pdrf], las->record_length, err);
 }
 
 /* ---- streaming ---- */
@@ -692,11 +598,14 @@ static const wpd_reader_ops las_reader_ops = {las_read, las_seek, las_close};
 int wpd_las_open_reader(wpd_reader *r, wpd_error *err)
 {
     wpd_las_info *las = &r->hdr.las;
-    uint64_t evlr_start = 0, points_end = 0;
+    uint64_t evlr_start = 0, points_end = 0, evlr_bytes = 0;
     r->hdr.format = WPD_FMT_LAS;
     if (read_header(r, &evlr_start, err) || read_vlrs(r, err) ||
-        check_point_data(r, &points_end, err) || read_evlrs(r, evlr_start, points_end, err))
+        check_point_data(r, &points_end, err) ||
+        read_evlrs(r, evlr_start, points_end, &evlr_bytes, err))
         return -1;
+    check_waveform_pointer(r, points_end);
+    check_unclaimed_bytes(r, points_end, evlr_bytes);
     r->hdr.point_count = las->point_count;
     if (wpd_las_schema_from_info(&r->hdr, err))
         return -1;

@@ -1,8 +1,9 @@
 /* las_write.c - LAS 1.0-1.4 writer.
  *
  * Layout written: header (the version's standard size + the caller's header
- * tail), VLRs, [LAS 1.0: the 0xCCDD point data start signature], point
- * records, EVLRs. The header is written first with zero counts and patched
+ * tail), VLRs (their headers byte for byte), the bytes the input had between
+ * its VLRs and points [none in a LAS 1.0 input: the 0xCCDD point data start
+ * signature], point records, EVLRs. The header is written first with zero counts and patched
  * by finish() with the counts, return histogram, bounds and EVLR position
  * of the points actually written. Header facts that identify the data
  * (creation date, system id, GUID, file source id, global encoding) are
@@ -69,7 +70,7 @@ static void encode_header(const wpd_writer *w, const las_writer *L, const header
     memcpy(h + LAS_OFF_GUID, las->guid, 16);
     h[LAS_OFF_VERSION_MAJOR] = las->version_major;
     h[LAS_OFF_VERSION_MINOR] = las->version_minor;
-    put_text(h + LAS_OFF_SYSTEM_ID, las->system_id, 32);
+    memcpy(h + LAS_OFF_SYSTEM_ID, las->system_id, 32); /* all 32 bytes, as read */
     put_text(h + LAS_OFF_SOFTWARE, "wpd", 32);
     las_put_u16(h + LAS_OFF_DAY, las->creation_day);
     las_put_u16(h + LAS_OFF_YEAR, las->creation_year);
@@ -122,17 +123,20 @@ static int write_header(wpd_writer *w, const las_writer *L, const header_totals 
 
 /* ---- VLRs and EVLRs ---- */
 
+/* Writes a VLR or EVLR: its header as read, byte for byte (all 16 bytes of
+ * the user id and 32 of the description, also those after a terminating
+ * NUL: see wpd_vlr), then the payload. */
 static int write_vlr(wpd_writer *w, const wpd_vlr *v, int extended, wpd_error *err)
 {
     uint8_t vh[LAS_EVLR_HEADER_SIZE] = {0};
     las_put_u16(vh, v->reserved);
-    put_text(vh + 2, v->user_id, 16);
+    memcpy(vh + 2, v->user_id, 16);
     las_put_u16(vh + 18, v->record_id);
     if (extended)
         las_put_u64(vh + 20, v->length);
     else
         las_put_u16(vh + 20, (uint16_t)v->length);
-    put_text(vh + (extended ? 28 : 22), v->description, 32);
+    memcpy(vh + (extended ? 28 : 22), v->description, 32);
     size_t hsize = extended ? LAS_EVLR_HEADER_SIZE : LAS_VLR_HEADER_SIZE;
     if (wpd_outfile_write(&w->out, vh, hsize, err))
         return -1;
@@ -320,14 +324,30 @@ static int check_writer_header(const wpd_writer *w, uint32_t record_length, wpd_
     return 0;
 }
 
+/* The point data start signature LAS 1.0 requires after the VLRs. */
+static const uint8_t las10_signature[2] = {0xCC, 0xDD}; /* as liblas writes it */
+
+/* Bytes written between the VLRs and the point data: those of the input
+ * (see wpd_las_info.vlr_tail), else LAS 1.0's start signature. */
+static const uint8_t *vlr_tail(const wpd_las_info *las, uint32_t *len)
+{
+    *len = las->vlr_tail_len;
+    if (*len)
+        return las->vlr_tail;
+    if (las->version_minor == 0)
+        *len = sizeof las10_signature;
+    return las10_signature;
+}
+
 /* Bytes before the first point record; -1 if beyond the 32-bit offset field. */
 static int64_t prelude_size(const wpd_las_info *las, uint16_t header_size)
 {
     uint64_t size = header_size;
     for (uint32_t i = 0; i < las->nvlr; i++)
         size += LAS_VLR_HEADER_SIZE + las->vlrs[i].length;
-    if (las->version_minor == 0)
-        size += 2; /* point data start signature */
+    uint32_t tail;
+    vlr_tail(las, &tail);
+    size += tail;
     return size > UINT32_MAX ? -1 : (int64_t)size;
 }
 
@@ -382,10 +402,7 @@ int wpd_las_open_writer(wpd_writer *w, wpd_error *err)
     for (uint32_t i = 0; i < las->nvlr; i++)
         if (write_vlr(w, &las->vlrs[i], 0, err))
             return -1;
-    if (las->version_minor == 0) {
-        static const uint8_t signature[2] = {0xCC, 0xDD}; /* as liblas writes it */
-        if (wpd_outfile_write(&w->out, signature, sizeof signature, err))
-            return -1;
-    }
-    return 0;
+    uint32_t tail_len;
+    const uint8_t *tail = vlr_tail(las, &tail_len);
+    return tail_len ? wpd_outfile_write(&w->out, tail, tail_len, err) : 0;
 }

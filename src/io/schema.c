@@ -131,6 +131,7 @@ void wpd_header_free(wpd_header *h)
     free_vlrs(h->las.vlrs, h->las.nvlr);
     free_vlrs(h->las.evlrs, h->las.nevlr);
     free(h->las.header_tail);
+    free(h->las.vlr_tail);
     free_strings(h->ply.comments, h->ply.ncomments);
     free_strings(h->ply.obj_info, h->ply.nobj_info);
     free(h->ply.elements);
@@ -185,7 +186,7 @@ int wpd_header_copy(wpd_header *dst, const wpd_header *src)
     *dst = *src;
     /* Null every owned pointer first so a partial failure frees cleanly. */
     dst->las.vlrs = dst->las.evlrs = NULL;
-    dst->las.header_tail = NULL;
+    dst->las.header_tail = dst->las.vlr_tail = NULL;
     dst->ply.comments = dst->ply.obj_info = NULL;
     dst->ply.elements = NULL;
     int bad = copy_vlrs(&dst->las.vlrs, src->las.vlrs, src->las.nvlr) ||
@@ -194,6 +195,9 @@ int wpd_header_copy(wpd_header *dst, const wpd_header *src)
               copy_strings(&dst->ply.obj_info, src->ply.obj_info, src->ply.nobj_info);
     if (!bad && src->las.header_tail_len &&
         !(dst->las.header_tail = copy_bytes(src->las.header_tail, src->las.header_tail_len)))
+        bad = 1;
+    if (!bad && src->las.vlr_tail_len &&
+        !(dst->las.vlr_tail = copy_bytes(src->las.vlr_tail, src->las.vlr_tail_len)))
         bad = 1;
     if (!bad && src->ply.nelements &&
         !(dst->ply.elements = copy_bytes(src->ply.elements,

@@ -12,6 +12,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/warnings.h"
+
 typedef enum wpd_type {
     WPD_I8, WPD_U8, WPD_I16, WPD_U16, WPD_I32, WPD_U32,
     WPD_I64, WPD_U64, WPD_F32, WPD_F64
@@ -43,12 +45,17 @@ typedef struct wpd_schema {
 } wpd_schema;
 
 /* ---- LAS header facts ---- */
+/* user_id and description hold every byte of their fixed-width fields, also
+ * those after a terminating NUL (some writers leave garbage there), plus a
+ * final NUL: read as C strings they give the text up to the first NUL (used
+ * for matching, e.g. "LASF_Spec"), and the LAS writer writes all 16 and 32
+ * bytes back. Code that builds a VLR must zero the struct first. */
 typedef struct wpd_vlr {
     uint16_t reserved;
-    char user_id[17];             /* NUL-terminated copy of the 16-byte field */
+    char user_id[17];             /* the 16-byte field + NUL */
     uint16_t record_id;
     uint64_t length;              /* payload bytes */
-    char description[33];
+    char description[33];         /* the 32-byte field + NUL */
     uint8_t *data;                /* payload (owned), length bytes */
 } wpd_vlr;
 
@@ -61,7 +68,8 @@ typedef struct wpd_las_info {
     uint32_t offset_to_points;
     uint16_t file_source_id, global_encoding;
     uint8_t guid[16];
-    char system_id[33], software[33];
+    char system_id[33], software[33]; /* the 32-byte fields + NUL, every byte as
+                                         read (system_id is written back so) */
     uint16_t creation_day, creation_year;
     double scale[3], offset[3];
     double min[3], max[3];        /* as stored in the header */
@@ -72,6 +80,9 @@ typedef struct wpd_las_info {
     wpd_vlr *vlrs, *evlrs;        /* owned arrays */
     uint8_t *header_tail;         /* bytes past the standard header (owned) */
     uint32_t header_tail_len;
+    uint8_t *vlr_tail;            /* bytes between the last VLR and the point
+                                     data (owned; LAS 1.0: the start signature) */
+    uint32_t vlr_tail_len;
 } wpd_las_info;
 
 /* ---- PLY header facts ---- */
@@ -102,6 +113,7 @@ typedef struct wpd_header {
     wpd_schema schema;
     wpd_las_info las;             /* valid when format == WPD_FMT_LAS */
     wpd_ply_info ply;             /* valid when format == WPD_FMT_PLY */
+    wpd_warnings warnings;        /* what the reader read despite the specification */
 } wpd_header;
 
 /* Size in bytes of a value of type t. */

@@ -1,0 +1,127 @@
+/* las_files.c - see las_files.h. */
+#include "las_files.h"
+
+#include "harness.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int lt_starts_with(const char *s, const char *prefix)
+{
+    return !strncmp(s, prefix, strlen(prefix));
+}
+
+void lt_free_points(lt_points *p)
+{
+    free(p->records);
+    free(p->xyz);
+    memset(p, 0, sizeof *p);
+}
+
+int lt_read_all(wpd_reader *r, lt_points *p, size_t batch_cap, wpd_error *err)
+{
+    const wpd_header *h = wpd_reader_header(r);
+    memset(p, 0, sizeof *p);
+    p->record_size = h->schema.record_size;
+    p->records = malloc(h->point_count * p->record_size + 1);
+    p->xyz = malloc(h->point_count * 3 * sizeof(double) + 1);
+    wpd_batch b;
+    if (!p->records || !p->xyz || wpd_batch_init(&b, batch_cap, p->record_size))
+        return -1;
+    long got;
+    while ((got = wpd_reader_read(r, &b, err)) > 0) {
+        if (p->n + (uint64_t)got > h->point_count) {
+            wpd_batch_free(&b);
+            return -1; /* more points than announced */
+        }
+        memcpy(p->records + p->n * p->record_size, b.records, (size_t)got * p->record_size);
+        memcpy(p->xyz + 3 * p->n, b.xyz, (size_t)got * 3 * sizeof(double));
+        p->n += (uint64_t)got;
+    }
+    wpd_batch_free(&b);
+    return got < 0 ? -1 : 0;
+}
+
+int lt_write_file(const char *path, const void *data, size_t len)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -1;
+    size_t w = fwrite(data, 1, len, f);
+    return fclose(f) == 0 && w == len ? 0 : -1;
+}
+
+wpd_error lt_open_and_read(const char *path)
+{
+    wpd_error err = {0};
+    wpd_reader *r = wpd_reader_open(path, &err);
+    if (r) {
+        lt_points p;
+        lt_read_all(r, &p, 4096, &err);
+        lt_free_points(&p);
+        wpd_reader_close(r);
+    }
+    return err;
+}
+
+size_t lt_build_las(uint8_t *buf, const lt_synth *s)
+{
+    uint16_t hsize = s->minor >= 4 ? 375 : s->minor == 3 ? 235 : 227;
+    size_t vlr = s->with_vlr ? 54 + 10 : 0;
+    uint32_t off = (uint32_t)(hsize + vlr);
+    memcpy(buf, "LASF", 4);
+    buf[24] = 1;
+    buf[25] = s->minor;
+    memcpy(buf + 26, "synthetic", 9);
+    memcpy(buf + 94, &hsize, 2);
+    memcpy(buf + 96, &off, 4);
+    uint32_t nvlr = s->with_vlr ? 1 : 0;
+    memcpy(buf + 100, &nvlr, 4);
+    buf[104] = s->pdrf;
+    memcpy(buf + 105, &s->record_length, 2);
+    uint32_t legacy = s->pdrf >= 6 ? 0 : s->npoints;
+    memcpy(buf + 107, &legacy, 4);
+    const double scale[3] = {0.01, 0.01, 0.01}, offset[3] = {1000, 2000, 0};
+    memcpy(buf + 131, scale, 24);
+    memcpy(buf + 155, offset, 24);
+    if (s->minor >= 4) {
+        uint64_t n = s->npoints;
+        memcpy(buf + 247, &n, 8);
+    }
+    if (s->with_vlr) {
+        uint8_t *v = buf + hsize;
+        memcpy(v + 2, "test", 4);
+        v[18] = 7;
+        v[20] = 10;
+        memcpy(v + 54, "0123456789", 10);
+    }
+    for (uint32_t i = 0; i < s->npoints; i++) {
+        uint8_t *p = buf + off + (size_t)i * s->record_length;
+        int32_t xyz[3] = {100 * (int32_t)i, -50 * (int32_t)i, 7};
+        memcpy(p, xyz, 12);
+        p[14] = (uint8_t)(i % 3 + 1);
+    }
+    return off + (size_t)s->npoints * s->record_length;
+}
+
+char *lt_tmp_path(char *buf, size_t len, const char *name)
+{
+    snprintf(buf, len, "%s/%s", test_tmp_dir(), name);
+    return buf;
+}
+
+void lt_expect_failure(int *failures_, const char *name, const uint8_t *bytes, size_t len,
+                       const char *expect)
+{
+    char path[1024];
+    lt_tmp_path(path, sizeof path, name);
+    if (lt_write_file(path, bytes, len)) {
+        CHECK_MSG(0, "cannot write %s", path);
+        return;
+    }
+    wpd_error err = lt_open_and_read(path);
+    CHECK_MSG(err.code == WPD_E_INPUT, "%s: code %d \"%s\"", name, err.code, err.msg);
+    CHECK_MSG(lt_starts_with(err.msg, path) && strstr(err.msg, expect),
+              "%s: \"%s\" (want \"%s\")", name, err.msg, expect);
+}
