@@ -412,18 +412,20 @@ static evlr_place evlr_place_of(const wpd_las_info *las, uint64_t evlr_start)
  * start of 0 as PDAL before 2.1 wrote it, EVLRs that run past the end) are
  * ignored with a warning. A start inside the point data stays an error:
  * either it or the point count is wrong, and with a wrong count the points
- * read would include EVLR bytes. */
+ * read would include EVLR bytes. Sets *claimed to the bytes after the
+ * points that the EVLRs take, or that the warning about them covers. */
 static int read_evlrs(wpd_reader *r, uint64_t evlr_start, uint64_t points_end,
-                      uint64_t *evlr_bytes, wpd_error *err)
+                      uint64_t *claimed, wpd_error *err)
 {
     wpd_las_info *las = &r->hdr.las;
     evlr_place e = evlr_place_of(las, evlr_start);
     const char *path = r->hdr.path;
     uint64_t size = r->hdr.file_size;
     las->nevlr = 0;
-    *evlr_bytes = 0;
+    *claimed = 0;
     if (!e.count)
         return 0;
+    *claimed = size - points_end; /* each way out below warns, or loads them */
     if (e.start >= las->offset_to_points && e.start < points_end)
         return wpd_fail(err, WPD_E_INPUT,
                         "%s: %s %llu lies inside the point data (bytes %u to %llu): either it "
@@ -455,7 +457,7 @@ static int read_evlrs(wpd_reader *r, uint64_t evlr_start, uint64_t points_end,
         return -1;
     }
     las->nevlr = e.count;
-    *evlr_bytes = stop - e.start;
+    *claimed = stop - e.start;
     return 0;
 }
 
@@ -477,14 +479,14 @@ static void check_waveform_pointer(wpd_reader *r, uint64_t points_end)
 
 /* Bytes after the point records that no EVLR claims: garbage some writers
  * leave, or records the point count does not cover. Never read as points. */
-static void check_unclaimed_bytes(wpd_reader *r, uint64_t points_end, uint64_t evlr_bytes)
+static void check_unclaimed_bytes(wpd_reader *r, uint64_t points_end, uint64_t claimed)
 {
     uint64_t after = r->hdr.file_size - points_end;
-    if (after <= evlr_bytes)
+    if (after <= claimed)
         return;
     wpd_warn(&r->hdr.warnings,
              "%s: %llu bytes after the %llu point records belong to no record; ignored",
-             r->hdr.path, (unsigned long long)(after - evlr_bytes),
+             r->hdr.path, (unsigned long long)(after - claimed),
              (unsigned long long)r->hdr.las.point_count);
 }
 
@@ -598,14 +600,14 @@ static const wpd_reader_ops las_reader_ops = {las_read, las_seek, las_close};
 int wpd_las_open_reader(wpd_reader *r, wpd_error *err)
 {
     wpd_las_info *las = &r->hdr.las;
-    uint64_t evlr_start = 0, points_end = 0, evlr_bytes = 0;
+    uint64_t evlr_start = 0, points_end = 0, claimed = 0;
     r->hdr.format = WPD_FMT_LAS;
     if (read_header(r, &evlr_start, err) || read_vlrs(r, err) ||
         check_point_data(r, &points_end, err) ||
-        read_evlrs(r, evlr_start, points_end, &evlr_bytes, err))
+        read_evlrs(r, evlr_start, points_end, &claimed, err))
         return -1;
     check_waveform_pointer(r, points_end);
-    check_unclaimed_bytes(r, points_end, evlr_bytes);
+    check_unclaimed_bytes(r, points_end, claimed);
     r->hdr.point_count = las->point_count;
     if (wpd_las_schema_from_info(&r->hdr, err))
         return -1;

@@ -2,6 +2,7 @@
 #include "las_files.h"
 
 #include "harness.h"
+#include "io/writer.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -124,4 +125,25 @@ void lt_expect_failure(int *failures_, const char *name, const uint8_t *bytes, s
     CHECK_MSG(err.code == WPD_E_INPUT, "%s: code %d \"%s\"", name, err.code, err.msg);
     CHECK_MSG(lt_starts_with(err.msg, path) && strstr(err.msg, expect),
               "%s: \"%s\" (want \"%s\")", name, err.msg, expect);
+}
+
+int lt_write_points(const char *out, const wpd_header *h, const lt_points *p,
+                    size_t batch_cap, wpd_error *err)
+{
+    wpd_write_options opt = {.overwrite = 1};
+    wpd_writer *w = wpd_writer_open(out, h, &opt, err);
+    if (!w)
+        return -1;
+    for (uint64_t done = 0; done < p->n;) {
+        size_t n = p->n - done < batch_cap ? (size_t)(p->n - done) : batch_cap;
+        wpd_batch b = {.cap = n, .n = n, .record_size = p->record_size,
+                       .records = p->records + done * p->record_size,
+                       .xyz = p->xyz + 3 * done};
+        if (wpd_writer_write(w, &b, err)) {
+            wpd_writer_abort(w);
+            return -1;
+        }
+        done += n;
+    }
+    return wpd_writer_close(w, err);
 }

@@ -33,6 +33,11 @@ typedef struct lt_points {
 int lt_read_all(wpd_reader *r, lt_points *p, size_t batch_cap, wpd_error *err);
 void lt_free_points(lt_points *p);
 
+/* Writes p with header h to out (overwriting it) in batches of batch_cap.
+ * Returns 0 or -1 with err set. */
+int lt_write_points(const char *out, const wpd_header *h, const lt_points *p,
+                    size_t batch_cap, wpd_error *err);
+
 /* Opens path and reads everything; returns the first error (or code OK). */
 wpd_error lt_open_and_read(const char *path);
 

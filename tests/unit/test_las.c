@@ -265,28 +265,6 @@ static int vlrs_equal(const wpd_vlr *a, const wpd_vlr *b, uint32_t n)
     return 1;
 }
 
-/* Writes p with header h to out. Returns 0 or -1 with err set. */
-static int write_points(const char *out, const wpd_header *h, const lt_points *p,
-                        size_t batch_cap, wpd_error *err)
-{
-    wpd_write_options opt = {.overwrite = 1};
-    wpd_writer *w = wpd_writer_open(out, h, &opt, err);
-    if (!w)
-        return -1;
-    for (uint64_t done = 0; done < p->n;) {
-        size_t n = p->n - done < batch_cap ? (size_t)(p->n - done) : batch_cap;
-        wpd_batch b = {.cap = n, .n = n, .record_size = p->record_size,
-                       .records = p->records + done * p->record_size,
-                       .xyz = p->xyz + 3 * done};
-        if (wpd_writer_write(w, &b, err)) {
-            wpd_writer_abort(w);
-            return -1;
-        }
-        done += n;
-    }
-    return wpd_writer_close(w, err);
-}
-
 static void check_round_trip(const char *dir, const manifest_row *row, void *vctx)
 {
     manifest_ctx *ctx = vctx;
@@ -306,7 +284,7 @@ static void check_round_trip(const char *dir, const manifest_row *row, void *vct
     const wpd_header *ha = wpd_reader_header(a);
     int ok = lt_read_all(a, &pa, 777, &err) == 0;
     CHECK_MSG(ok, "%s: %s", path, err.msg);
-    ok = ok && write_points(out, ha, &pa, 500, &err) == 0;
+    ok = ok && lt_write_points(out, ha, &pa, 500, &err) == 0;
     CHECK_MSG(ok, "%s: %s", out, err.msg);
     wpd_reader *b = ok ? wpd_reader_open(out, &err) : NULL;
     CHECK_MSG(!ok || b, "%s: %s", out, err.msg);
@@ -647,7 +625,7 @@ TEST(las_writer_header_fields)
     p.xyz[0] = 990.0;
     uint8_t before[9 * 30];
     memcpy(before, p.records, sizeof before);
-    CHECK(write_points(out_path, wpd_reader_header(r), &p, 4, &err) == 0);
+    CHECK(lt_write_points(out_path, wpd_reader_header(r), &p, 4, &err) == 0);
     CHECK_MSG(!memcmp(before, p.records, sizeof before), "caller's records modified");
     size_t n;
     read_bytes(out_path, out, sizeof out, &n);
@@ -687,12 +665,12 @@ TEST(las_writer_rejects_unrepresentable_coordinates)
     lt_points p;
     CHECK(lt_read_all(r, &p, 64, &err) == 0);
     p.xyz[7] = 1e12; /* y of point 2 with scale 0.01 */
-    CHECK(write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
+    CHECK(lt_write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
     CHECK_MSG(lt_starts_with(err.msg, out_path) && strstr(err.msg, "point 2: y"), "%s", err.msg);
     struct stat st;
     CHECK(stat(out_path, &st) != 0); /* no partial output */
     p.xyz[7] = NAN;
-    CHECK(write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
+    CHECK(lt_write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
     lt_free_points(&p);
     wpd_reader_close(r);
 }
