@@ -11,5 +11,7 @@ import test_engine  # noqa: E402
 import test_cli  # noqa: E402
 import test_faults  # noqa: E402
 import test_driver  # noqa: E402
+import test_las_lenient  # noqa: E402
 
-sys.exit(harness.run([test_io, test_resample, test_engine, test_cli, test_faults, test_driver]))
+sys.exit(harness.run([test_io, test_resample, test_engine, test_cli, test_faults, test_driver,
+                      test_las_lenient]))
