@@ -55,6 +55,22 @@ static int fuzz_check_refusal(const char *path, const wpd_error *err, char *why,
     return FUZZ_REFUSED;
 }
 
+/* A warning, like an error, is one line that starts with the file's path. */
+static int fuzz_check_warnings(const char *path, const wpd_warnings *w, char *why, size_t whylen)
+{
+    size_t n = strlen(path);
+    if (w->n > WPD_WARNINGS_MAX)
+        return fuzz_broken(why, whylen, "%u warnings stored", w->n);
+    for (uint32_t i = 0; i < w->n; i++) {
+        const char *line = w->line[i];
+        if (!memchr(line, '\0', sizeof w->line[i]) || strncmp(line, path, n) ||
+            strncmp(line + n, ": ", 2) || strchr(line, '\n'))
+            return fuzz_broken(why, whylen, "warning %u is not one line naming the file: %.200s",
+                               i, line);
+    }
+    return 0;
+}
+
 static int fuzz_cmp_u64(const void *a, const void *b)
 {
     uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
@@ -149,6 +165,8 @@ static int fuzz_drive(const char *path, wpd_error *err, char *why, size_t whylen
         return fuzz_check_refusal(path, err, why, whylen);
     const wpd_header *h = wpd_reader_header(r);
     int rc = fuzz_check_schema(h, why, whylen);
+    if (rc == 0)
+        rc = fuzz_check_warnings(path, &h->warnings, why, whylen);
     wpd_batch b, first;
     memset(&first, 0, sizeof first);
     if (rc == 0 && wpd_batch_init(&b, FUZZ_BATCH_CAP, h->schema.record_size)) {
