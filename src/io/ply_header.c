@@ -178,8 +178,7 @@ static void warn_oddities(const header_parser *hp)
     static const char *const what[ODD_KINDS] = {
         [ODD_STRAY] = "is not a keyword line (skipped)",
         [ODD_BLANK] = "is blank (skipped)",
-        [ODD_END_BLANKS] = "has blanks after end_header (ignored: the data starts after the "
-                           "line end)",
+        [ODD_END_BLANKS] = "has blanks after end_header (the data starts after the line end)",
         [ODD_VERSION] = "writes version 1.0 in another way (read as 1.0)",
         [ODD_FORMAT_AGAIN] = "repeats the format line (ignored)",
     };

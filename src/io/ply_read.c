@@ -208,30 +208,32 @@ static int locate_vertices(wpd_reader *r, ply_reader *pr, wpd_error *err)
     return 0;
 }
 
-/* Binary, once the vertices fit: when the header fixes where the last
- * element ends (no list property from the vertex element on), warns about
- * bytes after it or a file that ends inside the elements after the
- * vertices. Neither changes the points: nothing reads past the vertices
- * (PCL warns about the first too). */
+/* Binary, once the vertices fit: as far as the header fixes where the
+ * elements end (up to a list property), warns about a file that ends
+ * inside an element after the vertices or, when it fixes the end of the
+ * last one, about bytes after it. Neither changes the points: nothing
+ * reads past the vertices (PCL warns about the second too). */
 static void check_binary_end(wpd_reader *r, const ply_reader *pr)
 {
+    const uint64_t size = r->hdr.file_size;
     uint64_t end = pr->vertex_offset;
     for (uint32_t i = pr->vertex; i < pr->nelems; i++) {
         const ply_elem *e = &pr->elems[i];
         if (e->has_lists || ply_muladd_u64(e->count, e->item_bytes, end, &end))
             return;
+        if (end > size) {
+            wpd_warn(&r->hdr.warnings,
+                     "%s: file ends %llu bytes short of the end of PLY element '%s'; the "
+                     "vertices are complete and nothing after them is read",
+                     r->hdr.path, (unsigned long long)(end - size), e->name);
+            return;
+        }
     }
-    const uint64_t size = r->hdr.file_size;
     if (end < size)
         wpd_warn(&r->hdr.warnings,
                  "%s: %llu bytes after the last PLY element (which ends at offset %llu) belong "
                  "to no element; ignored",
                  r->hdr.path, (unsigned long long)(size - end), (unsigned long long)end);
-    else if (end > size)
-        wpd_warn(&r->hdr.warnings,
-                 "%s: file ends %llu bytes short of the end of PLY element '%s'; the vertices "
-                 "are complete and nothing after them is read",
-                 r->hdr.path, (unsigned long long)(end - size), pr->elems[pr->nelems - 1].name);
 }
 
 /* Binary: finds vertex 0 now (so seeks work) and checks that the vertex data

@@ -110,10 +110,12 @@ int ply_stream_token(ply_stream *s, const char **tok, size_t *len, const char *p
     for (;;) {
         char *p = s->buf + s->pos;
         uint8_t space;
+        uint64_t newlines = 0; /* a local: a store through s could alias buf */
         while ((space = ply_space_table[(unsigned char)*p])) {
-            s->line += space == PLY_NEWLINE; /* the blanks are passed once */
+            newlines += space == PLY_NEWLINE;
             p++;
         }
+        s->line += newlines; /* the blanks are passed once: pos moves past them */
         s->token_line = s->line;
         char *q = p;
         while (*q && !ply_is_space((unsigned char)*q))

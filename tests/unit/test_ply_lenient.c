@@ -220,21 +220,25 @@ TEST(ply_lenient_version_written_otherwise)
 TEST(ply_lenient_binary_tail)
 {
     static const char edges[] = "element edge 2\nproperty int a\nproperty int b\nend_header\n";
-    for (int c = 0; c < 3; c++) {
+    static const char edges_cams[] = "element edge 2\nproperty int a\nproperty int b\n"
+                                     "element cam 1\nproperty double t\nend_header\n";
+    for (int c = 0; c < 4; c++) {
         uint8_t file[2048] = {0};
         char hdr[1024], path[512], name[64];
         header(hdr, sizeof hdr, "format binary_little_endian 1.0", "", "float",
-               c == 0 ? "end_header\n" : edges);
+               c == 0 ? "end_header\n" : c == 3 ? edges_cams : edges);
         size_t n = strlen(hdr);
         memcpy(file, hdr, n);
         n += binary_vertices(file + n, 0);
-        size_t tail = c == 0 ? 5 : c == 1 ? 16 + 7 : 16 - 6; /* trailing, trailing, short */
+        /* trailing, trailing, short, short in the element before the last */
+        size_t tail = c == 0 ? 5 : c == 1 ? 16 + 7 : c == 2 ? 16 - 6 : 16 - 3;
         snprintf(name, sizeof name, "tail_%d.ply", c);
         write_case(path, sizeof path, name, (const char *)file, n + tail);
         static const char *const want[] = {
             "5 bytes after the last PLY element (which ends at offset ",
             "7 bytes after the last PLY element",
-            "file ends 6 bytes short of the end of PLY element 'edge'; the vertices are complete"};
+            "file ends 6 bytes short of the end of PLY element 'edge'; the vertices are complete",
+            "file ends 3 bytes short of the end of PLY element 'edge'"};
         check_lenient(path, want[c], 3, failures_);
     }
 }
