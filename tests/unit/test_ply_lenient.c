@@ -41,31 +41,6 @@ static uint32_t warnings_with(const wpd_header *h, const char *path, const char 
     return n;
 }
 
-/* Opens path, expects exactly one warning, containing want (or none when
- * want is NULL), and npts points equal to the first npts of want_xyz. */
-static void check_lenient(const char *path, const char *want, size_t npts, int *failures_)
-{
-    wpd_error err;
-    wpd_reader *r = wpd_reader_open(path, &err);
-    CHECK_MSG(r != NULL, "%s", err.msg);
-    if (!r)
-        return;
-    uint32_t total;
-    uint32_t hits = warnings_with(wpd_reader_header(r), path, want, &total);
-    const char *first = total ? wpd_reader_header(r)->warnings.line[0] : "(none)";
-    CHECK_MSG(want ? hits == 1 && total == 1 : total == 0, "%s: want '%s', got %u: %s", path,
-              want ? want : "no warning", total, first);
-    pf_cloud c;
-    CHECK_MSG(pf_read_all_from(r, &c, 2, &err) == 0, "%s", err.msg);
-    CHECK_MSG(c.n == npts, "%s: %zu points", path, c.n);
-    for (size_t i = 0; i < c.n && i < npts; i++)
-        CHECK_MSG(!memcmp(c.xyz + 3 * i, want_xyz[i], sizeof want_xyz[i]),
-                  "%s: point %zu is %g %g %g", path, i, c.xyz[3 * i], c.xyz[3 * i + 1],
-                  c.xyz[3 * i + 2]);
-    pf_cloud_free(&c);
-    wpd_reader_close(r);
-}
-
 /* The three points of want_xyz as ascii vertex lines with normals, one per
  * line (the Blender 2.4x exporter ends each with a blank). */
 static const char ascii_vertices[] = "1.000000 2.000000 3.000000 0.000000 0.000000 1.000000 \n"
@@ -81,6 +56,50 @@ static void header(char *out, size_t size, const char *fmt, const char *extra, c
              "ply\n%s\n%selement vertex 3\nproperty %s x\nproperty %s y\nproperty %s z\n"
              "property %s nx\nproperty %s ny\nproperty %s nz\n%s",
              fmt, extra, ty, ty, ty, ty, ty, ty, end);
+}
+
+/* Writes <tmp>/name: header(fmt, extra, ty, end) then body; path gets the
+ * file's path. */
+static void write_ascii_case(char *path, size_t size, const char *name, const char *fmt,
+                             const char *extra, const char *ty, const char *end, const char *body)
+{
+    char hdr[1024], text[4096];
+    header(hdr, sizeof hdr, fmt, extra, ty, end);
+    snprintf(text, sizeof text, "%s%s", hdr, body);
+    write_case(path, size, name, text, 0);
+}
+
+/* Opens path; NULL, and a failed check, when it does not open. */
+static wpd_reader *open_checked(const char *path, int *failures_)
+{
+    wpd_error err;
+    wpd_reader *r = wpd_reader_open(path, &err);
+    CHECK_MSG(r != NULL, "%s", err.msg);
+    return r;
+}
+
+/* Opens path, expects exactly one warning, containing want (or none when
+ * want is NULL), and npts points equal to the first npts of want_xyz. */
+static void check_lenient(const char *path, const char *want, size_t npts, int *failures_)
+{
+    wpd_reader *r = open_checked(path, failures_);
+    if (!r)
+        return;
+    wpd_error err;
+    uint32_t total;
+    uint32_t hits = warnings_with(wpd_reader_header(r), path, want, &total);
+    const char *first = total ? wpd_reader_header(r)->warnings.line[0] : "(none)";
+    CHECK_MSG(want ? hits == 1 && total == 1 : total == 0, "%s: want '%s', got %u: %s", path,
+              want ? want : "no warning", total, first);
+    pf_cloud c;
+    CHECK_MSG(pf_read_all_from(r, &c, 2, &err) == 0, "%s", err.msg);
+    CHECK_MSG(c.n == npts, "%s: %zu points", path, c.n);
+    for (size_t i = 0; i < c.n && i < npts; i++)
+        CHECK_MSG(!memcmp(c.xyz + 3 * i, want_xyz[i], sizeof want_xyz[i]),
+                  "%s: point %zu is %g %g %g", path, i, c.xyz[3 * i], c.xyz[3 * i + 1],
+                  c.xyz[3 * i + 2]);
+    pf_cloud_free(&c);
+    wpd_reader_close(r);
 }
 
 /* Binary vertices of want_xyz with normals as float32, little- or big-endian. */
@@ -109,10 +128,10 @@ static const char blender_faces[] =
 
 TEST(ply_lenient_blender_247_ascii)
 {
-    char text[2048], hdr[1024], path[512];
-    header(hdr, sizeof hdr, "format ascii 1.0", blender_line, "float32", blender_faces);
-    snprintf(text, sizeof text, "%s%s3 0 1 2 \n", hdr, ascii_vertices);
-    write_case(path, sizeof path, "blender247_ascii.ply", text, 0);
+    char body[256], path[512];
+    snprintf(body, sizeof body, "%s3 0 1 2 \n", ascii_vertices);
+    write_ascii_case(path, sizeof path, "blender247_ascii.ply", "format ascii 1.0", blender_line,
+                     "float32", blender_faces, body);
     check_lenient(path, "PLY header line 3 is not a keyword line (skipped): 'Created by Blender3D",
                   3, failures_);
 }
@@ -141,15 +160,11 @@ TEST(ply_lenient_blender_247_binary)
 /* Several kinds at once: one warning per kind, the first line and a count. */
 TEST(ply_lenient_one_warning_per_kind)
 {
-    char text[2048], hdr[1024], path[512];
-    header(hdr, sizeof hdr, "format ascii 1.0",
-           "Created by hand\n\nmade on a Sunday\n\nformat ascii 1.0\n", "float",
-           "end_header\n");
-    snprintf(text, sizeof text, "%s%s", hdr, ascii_vertices);
-    write_case(path, sizeof path, "kinds.ply", text, 0);
-    wpd_error err;
-    wpd_reader *r = wpd_reader_open(path, &err);
-    CHECK_MSG(r != NULL, "%s", err.msg);
+    char path[512];
+    write_ascii_case(path, sizeof path, "kinds.ply", "format ascii 1.0",
+                     "Created by hand\n\nmade on a Sunday\n\nformat ascii 1.0\n", "float",
+                     "end_header\n", ascii_vertices);
+    wpd_reader *r = open_checked(path, failures_);
     if (!r)
         return;
     const wpd_header *h = wpd_reader_header(r);
@@ -164,10 +179,9 @@ TEST(ply_lenient_one_warning_per_kind)
 
 TEST(ply_lenient_blank_header_line)
 {
-    char text[2048], hdr[1024], path[512];
-    header(hdr, sizeof hdr, "format ascii 1.0", "\n  \t\n", "float", "end_header\n");
-    snprintf(text, sizeof text, "%s%s", hdr, ascii_vertices);
-    write_case(path, sizeof path, "blank.ply", text, 0);
+    char path[512];
+    write_ascii_case(path, sizeof path, "blank.ply", "format ascii 1.0", "\n  \t\n", "float",
+                     "end_header\n", ascii_vertices);
     check_lenient(path, "PLY header line 3 is blank (skipped) (and 1 more such line)", 3,
                   failures_);
 }
@@ -203,12 +217,11 @@ TEST(ply_lenient_version_written_otherwise)
 {
     static const char *const versions[] = {"1", "1.00", "1.0e0"};
     for (int i = 0; i < 3; i++) {
-        char text[2048], hdr[1024], path[512], fmt[64], want[128], name[64];
+        char path[512], fmt[64], want[128], name[64];
         snprintf(fmt, sizeof fmt, "format ascii %s", versions[i]);
-        header(hdr, sizeof hdr, fmt, "", "float", "end_header\n");
-        snprintf(text, sizeof text, "%s%s", hdr, ascii_vertices);
         snprintf(name, sizeof name, "version_%d.ply", i);
-        write_case(path, sizeof path, name, text, 0);
+        write_ascii_case(path, sizeof path, name, fmt, "", "float", "end_header\n",
+                         ascii_vertices);
         snprintf(want, sizeof want, "line 2 writes version 1.0 in another way (read as 1.0): '%s'",
                  versions[i]);
         check_lenient(path, want, 3, failures_);
@@ -248,15 +261,13 @@ TEST(ply_lenient_binary_tail)
  * names of both naming styles. */
 TEST(ply_lenient_quiet_cases)
 {
-    char text[2048], hdr[1024], path[512];
-    header(hdr, sizeof hdr, "format ascii 1.0",
-           "comment\ncomment\tby tab\nobj_info\nobj_info  two blanks\n", "float",
-           "end_header\n");
-    snprintf(text, sizeof text, "%s\n%s\n\n", hdr, ascii_vertices);
-    write_case(path, sizeof path, "quiet.ply", text, 0);
+    char path[512];
+    write_ascii_case(path, sizeof path, "quiet.ply", "format ascii 1.0",
+                     "comment\ncomment\tby tab\nobj_info\nobj_info  two blanks\n", "float",
+                     "end_header\n",
+                     "\n1 2 3 0 0 1\n\n \t\n4.5 5 6 0 0 1\r\n7 8 9.25 0 1 0\n\n\n");
     check_lenient(path, NULL, 3, failures_);
-    wpd_error err;
-    wpd_reader *r = wpd_reader_open(path, &err);
+    wpd_reader *r = open_checked(path, failures_);
     if (r) {
         const wpd_ply_info *ply = &wpd_reader_header(r)->ply;
         CHECK(ply->ncomments == 2 && !strcmp(ply->comments[0], "") &&
@@ -267,10 +278,9 @@ TEST(ply_lenient_quiet_cases)
     static const char *const types[] = {"double", "float64", "float"};
     for (int t = 0; t < 3; t++) {
         char name[64];
-        header(hdr, sizeof hdr, "format ascii 1.0", "", types[t], "end_header\n");
-        snprintf(text, sizeof text, "%s%s", hdr, ascii_vertices);
         snprintf(name, sizeof name, "types_%d.ply", t);
-        write_case(path, sizeof path, name, text, 0);
+        write_ascii_case(path, sizeof path, name, "format ascii 1.0", "", types[t],
+                         "end_header\n", ascii_vertices);
         check_lenient(path, NULL, 3, failures_);
     }
     write_case(path, sizeof path, "zero.ply",
@@ -282,14 +292,24 @@ TEST(ply_lenient_quiet_cases)
 /* "commentfoo" is not the comment keyword: skipped as a stray line. */
 TEST(ply_lenient_comment_without_blank)
 {
-    char text[2048], hdr[1024], path[512];
-    header(hdr, sizeof hdr, "format ascii 1.0", "commentfoo bar\n", "float", "end_header\n");
-    snprintf(text, sizeof text, "%s%s", hdr, ascii_vertices);
-    write_case(path, sizeof path, "commentfoo.ply", text, 0);
+    char path[512];
+    write_ascii_case(path, sizeof path, "commentfoo.ply", "format ascii 1.0", "commentfoo bar\n",
+                     "float", "end_header\n", ascii_vertices);
     check_lenient(path, "line 3 is not a keyword line (skipped): 'commentfoo bar'", 3, failures_);
 }
 
 /* ------------------------------------------------------------------ strict */
+
+/* Writes an ascii case (see write_ascii_case, float x y z nx ny nz) and
+ * expects it refused with one line naming the file and containing want. */
+static void check_refused(const char *name, const char *fmt, const char *extra,
+                          const char *body, const char *want, int *failures_)
+{
+    char path[512], msg[WPD_ERRMSG_MAX];
+    write_ascii_case(path, sizeof path, name, fmt, extra, "float", "end_header\n", body);
+    CHECK_MSG(pf_fails_with(path, want, msg, sizeof msg), "%s: got '%s'", name, msg);
+    CHECK_MSG(!strchr(msg, '\n'), "%s: not one line", name);
+}
 
 TEST(ply_strict_header_cases)
 {
@@ -311,14 +331,10 @@ TEST(ply_strict_header_cases)
          "line 4: unknown property type 'half'"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char text[2048], hdr[1024], path[512], name[64], msg[WPD_ERRMSG_MAX];
-        header(hdr, sizeof hdr, cases[i].fmt, cases[i].extra, "float", "end_header\n");
-        snprintf(text, sizeof text, "%s%s", hdr, ascii_vertices);
+        char name[64];
         snprintf(name, sizeof name, "strict_hdr_%zu.ply", i);
-        write_case(path, sizeof path, name, text, 0);
-        CHECK_MSG(pf_fails_with(path, cases[i].want, msg, sizeof msg), "case %zu: got '%s'", i,
-                  msg);
-        CHECK_MSG(!strchr(msg, '\n'), "case %zu: not one line", i);
+        check_refused(name, cases[i].fmt, cases[i].extra, ascii_vertices, cases[i].want,
+                      failures_);
     }
 }
 
@@ -341,13 +357,9 @@ TEST(ply_strict_ascii_lines)
          "(it goes on at line 13)"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-        char text[2048], hdr[1024], path[512], name[64], msg[WPD_ERRMSG_MAX];
-        header(hdr, sizeof hdr, "format ascii 1.0", "", "float", "end_header\n");
-        snprintf(text, sizeof text, "%s%s", hdr, cases[i].body);
+        char name[64];
         snprintf(name, sizeof name, "strict_lines_%zu.ply", i);
-        write_case(path, sizeof path, name, text, 0);
-        CHECK_MSG(pf_fails_with(path, cases[i].want, msg, sizeof msg), "case %zu: got '%s'", i,
-                  msg);
+        check_refused(name, "format ascii 1.0", "", cases[i].body, cases[i].want, failures_);
     }
     /* The same rule for an element before the vertices, lists included. */
     char path[512], msg[WPD_ERRMSG_MAX];
