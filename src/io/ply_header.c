@@ -160,6 +160,7 @@ static void keep_text(char *dst, size_t size, const char *text)
         memcpy(dst + size - 4, "...", 4);
 }
 
+/* Notes a line of an oddity kind: the first one is kept, the others counted. */
 static void note_oddity(header_parser *hp, int kind, const char *text)
 {
     header_oddity *o = &hp->odd[kind];
@@ -196,8 +197,8 @@ static void warn_oddities(const header_parser *hp)
     }
 }
 
-/* A second format line that agrees with the first is only noted (some
- * writers repeat it); one that disagrees leaves the encoding unknown. */
+/* A second format line that agrees with the first is only noted (it says
+ * nothing new); one that disagrees leaves the encoding unknown. */
 static int parse_format(header_parser *hp, char **tok, int n, wpd_error *err)
 {
     if (n != 3)
