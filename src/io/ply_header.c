@@ -3,6 +3,11 @@
  * come before any of the body is read. The header is "ply", one "format"
  * line, then "element", "property" (scalar or list), "comment" and
  * "obj_info" lines, closed by "end_header".
+ *
+ * Lines that bend this without changing what the data means (free text
+ * that is no keyword line, blank lines, blanks after end_header, a version
+ * written "1" or "1.00", the format line twice) are read with one warning
+ * per kind in the header's warnings; see docs/formats.md for each case.
  */
 #include "io/ply_reader.h"
 
@@ -11,6 +16,7 @@
 #include <string.h>
 
 #include "common/fullio.h"
+#include "common/warnings.h"
 #include "io/decimal.h"
 
 #define PLY_HEADER_MAX (1u << 20)   /* a longer header is refused */
@@ -20,6 +26,15 @@
 
 static const char *const encoding_names[] = WPD_PLY_ENCODING_NAMES;
 
+/* Harmless oddities of the header, each kind reported by one warning once
+ * the header is read: its first line, what it says, how many more. */
+enum { ODD_STRAY, ODD_BLANK, ODD_END_BLANKS, ODD_VERSION, ODD_FORMAT_AGAIN, ODD_KINDS };
+
+typedef struct header_oddity {
+    unsigned first_line, more;
+    char text[64];           /* the start of the first such line, or a word */
+} header_oddity;
+
 typedef struct header_parser {
     wpd_reader *r;
     ply_reader *pr;
@@ -28,6 +43,7 @@ typedef struct header_parser {
     int eof;
     unsigned line_no;
     int have_format, done;
+    header_oddity odd[ODD_KINDS];
 } header_parser;
 
 /* Returns the next header line (without its newline, NUL-terminated in
@@ -136,10 +152,55 @@ static const char *line_text(const char *line, size_t keyword_len)
     return *p ? p + 1 : p;
 }
 
+/* Keeps text for a warning: at most sizeof odd->text - 1 bytes, "..." at
+ * the end when cut. */
+static void keep_text(char *dst, size_t size, const char *text)
+{
+    if ((size_t)snprintf(dst, size, "%s", text) >= size)
+        memcpy(dst + size - 4, "...", 4);
+}
+
+/* Notes a line of an oddity kind: the first one is kept, the others counted. */
+static void note_oddity(header_parser *hp, int kind, const char *text)
+{
+    header_oddity *o = &hp->odd[kind];
+    if (o->first_line) {
+        o->more++;
+        return;
+    }
+    o->first_line = hp->line_no;
+    if (text)
+        keep_text(o->text, sizeof o->text, text);
+}
+
+/* One warning per kind of oddity met, naming the file and the first line. */
+static void warn_oddities(const header_parser *hp)
+{
+    static const char *const what[ODD_KINDS] = {
+        [ODD_STRAY] = "is not a keyword line (skipped)",
+        [ODD_BLANK] = "is blank (skipped)",
+        [ODD_END_BLANKS] = "has blanks after end_header (the data starts after the line end)",
+        [ODD_VERSION] = "writes version 1.0 in another way (read as 1.0)",
+        [ODD_FORMAT_AGAIN] = "repeats the format line (ignored)",
+    };
+    for (int k = 0; k < ODD_KINDS; k++) {
+        const header_oddity *o = &hp->odd[k];
+        if (!o->first_line)
+            continue;
+        char more[48] = "";
+        if (o->more)
+            snprintf(more, sizeof more, " (and %u more such line%s)", o->more,
+                     o->more == 1 ? "" : "s");
+        wpd_warn(&hp->r->hdr.warnings, "%s: PLY header line %u %s%s%s%s%s", hp->r->hdr.path,
+                 o->first_line, what[k], o->text[0] ? ": '" : "", o->text,
+                 o->text[0] ? "'" : "", more);
+    }
+}
+
+/* A second format line that agrees with the first is only noted (it says
+ * nothing new); one that disagrees leaves the encoding unknown. */
 static int parse_format(header_parser *hp, char **tok, int n, wpd_error *err)
 {
-    if (hp->have_format)
-        return header_fail(hp, err, "second format line", NULL);
     if (n != 3)
         return header_fail(hp, err, "expected 'format <encoding> 1.0'", NULL);
     int enc = -1;
@@ -151,6 +212,14 @@ static int parse_format(header_parser *hp, char **tok, int n, wpd_error *err)
     double version;
     if (!wpd_decimal_exact(tok[2], strlen(tok[2]), &version) || version != 1.0)
         return header_fail(hp, err, "unsupported PLY version", tok[2]);
+    if (hp->have_format) {
+        if ((wpd_ply_encoding)enc != hp->pr->enc)
+            return header_fail(hp, err, "second format line with another encoding", tok[1]);
+        note_oddity(hp, ODD_FORMAT_AGAIN, NULL);
+        return 0;
+    }
+    if (strcmp(tok[2], "1.0"))
+        note_oddity(hp, ODD_VERSION, tok[2]);
     hp->pr->enc = (wpd_ply_encoding)enc;
     hp->have_format = 1;
     return 0;
@@ -224,12 +293,57 @@ static int parse_property(header_parser *hp, char **tok, int n, wpd_error *err)
     return 0;
 }
 
+/* 1 if word reads as the start of a number (data, not a keyword). */
+static int starts_number(const char *word)
+{
+    const char *p = word + (*word == '-' || *word == '+');
+    return (*p >= '0' && *p <= '9') || (*p == '.' && p[1] >= '0' && p[1] <= '9');
+}
+
+/* A line whose first word is no keyword: free text some writers put in the
+ * header (Blender 2.4x's "Created by Blender3D 247 - www.blender.org, ...")
+ * is skipped with a warning, as PCL does. Refused when skipping it could
+ * change what the data means: a number (data before a missing end_header),
+ * or the shape of a declaration whose keyword is misspelled ("<word> <type>
+ * <name>", "<word> list ...", "<word> <name> <count>"), which would
+ * misplace every property after it. */
+static int stray_line(header_parser *hp, char **tok, int n, const char *text, wpd_error *err)
+{
+    if (starts_number(tok[0]))
+        return header_fail(hp, err, "a number where a keyword belongs (no end_header line?)",
+                           tok[0]);
+    wpd_type type;
+    int neg;
+    uint64_t count;
+    int declaration = (n == 3 && !wpd_type_parse(tok[1], &type)) ||
+                      (n == 5 && !strcmp(tok[1], "list")) ||
+                      (n == 3 && wpd_decimal_integer(tok[2], strlen(tok[2]), &neg, &count) == 1);
+    if (declaration)
+        return header_fail(hp, err, "unknown keyword on a line shaped like a declaration",
+                           tok[0]);
+    note_oddity(hp, ODD_STRAY, text);
+    return 0;
+}
+
+static int end_header(header_parser *hp, int n, int trailing_blanks, wpd_error *err)
+{
+    if (n != 1)
+        return header_fail(hp, err, "text after end_header", NULL);
+    if (trailing_blanks)
+        note_oddity(hp, ODD_END_BLANKS, NULL);
+    hp->done = 1;
+    return 0;
+}
+
 /* Handles one header line. */
 static int header_line(header_parser *hp, char *line, size_t len, wpd_error *err)
 {
     wpd_ply_info *info = &hp->r->hdr.ply;
     if (memchr(line, '\0', len))
         return header_fail(hp, err, "binary data before end_header", NULL);
+    if (len && line[len - 1] == '\r') /* CRLF line ends: no oddity */
+        line[--len] = '\0';
+    int trailing_blanks = len && ply_is_space((unsigned char)line[len - 1]);
     rstrip(line, &len);
     if (hp->line_no == 1) {
         if (strcmp(line, "ply"))
@@ -245,25 +359,23 @@ static int header_line(header_parser *hp, char *line, size_t len, wpd_error *err
             return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", hp->r->hdr.path);
         return 0;
     }
+    char text[sizeof hp->odd[0].text];
+    keep_text(text, sizeof text, line); /* split_tokens cuts the line up */
     char *tok[PLY_LINE_TOKENS];
     int n = split_tokens(line, tok, PLY_LINE_TOKENS);
-    if (n == 0)
-        return 0; /* blank line */
-    if (n > PLY_LINE_TOKENS - 1)
-        return header_fail(hp, err, "too many words on the line", NULL);
+    if (n == 0) {
+        note_oddity(hp, ODD_BLANK, NULL);
+        return 0;
+    }
     if (!strcmp(tok[0], "format"))
         return parse_format(hp, tok, n, err);
     if (!strcmp(tok[0], "element"))
         return parse_element(hp, tok, n, err);
     if (!strcmp(tok[0], "property"))
         return parse_property(hp, tok, n, err);
-    if (!strcmp(tok[0], "end_header")) {
-        if (n != 1)
-            return header_fail(hp, err, "text after end_header", NULL);
-        hp->done = 1;
-        return 0;
-    }
-    return header_fail(hp, err, "unknown keyword", tok[0]);
+    if (!strcmp(tok[0], "end_header"))
+        return end_header(hp, n, trailing_blanks, err);
+    return stray_line(hp, tok, n, text, err);
 }
 
 /* Reads and parses the header up to end_header; sets pr->body_offset. */
@@ -294,6 +406,8 @@ static int parse_header(wpd_reader *r, ply_reader *pr, wpd_error *err)
     if (!hp.have_format)
         return wpd_fail(err, WPD_E_INPUT, "%s: PLY header has no format line", r->hdr.path);
     pr->body_offset = hp.pos;
+    pr->header_lines = hp.line_no;
+    warn_oddities(&hp);
     return 0;
 }
 

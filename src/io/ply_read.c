@@ -26,6 +26,7 @@
 #include <string.h>
 
 #include "common/fullio.h"
+#include "common/warnings.h"
 #include "io/decimal.h"
 
 #define PLY_CHUNK_BYTES (1u << 20)  /* records read and decoded at a time */
@@ -97,35 +98,67 @@ short_file:
                     e->name);
 }
 
+/* Ascii: the next token of the current item of element e. Each item is a
+ * line of its own: its first token (first) must start a line after the
+ * previous item's, the others must be on that line. Wrapped or run-together
+ * items would otherwise shift every value after them without a trace (PCL
+ * and plyfile refuse them too). Returns 1, -2 at end of file, -1 with err
+ * set. */
+static int item_token(ply_reader *pr, const ply_elem *e, uint64_t item, int first,
+                      const char **tok, size_t *len, const char *path, wpd_error *err)
+{
+    int rc = ply_stream_token(&pr->st, tok, len, path, err);
+    if (rc <= 0)
+        return rc < 0 ? -1 : -2;
+    uint64_t line = pr->st.token_line;
+    if (first && line == pr->item_line)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: PLY line %llu holds more values than one item of element '%s' has "
+                        "(each item must be a line of its own)",
+                        path, (unsigned long long)line, e->name);
+    if (first)
+        pr->item_line = line;
+    else if (line != pr->item_line)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: PLY line %llu: element '%s' item %llu has fewer values than its %u "
+                        "properties need (it goes on at line %llu)",
+                        path, (unsigned long long)pr->item_line, e->name,
+                        (unsigned long long)item, e->nprops, (unsigned long long)line);
+    return 1;
+}
+
 /* Ascii: skips the items of a list property whose count token is tok (the
  * count is checked before any item is read, so tok is still valid when it
  * is bad). Returns 1; 0 if tok is not a list count; -2 if the file ends
  * inside the list; -1 with err set. */
-static int skip_ascii_list(ply_stream *st, const char *tok, size_t len, const char *path,
-                           wpd_error *err)
+static int skip_ascii_list(ply_reader *pr, const ply_elem *e, uint64_t item, const char *tok,
+                           size_t len, const char *path, wpd_error *err)
 {
     uint64_t n;
     int neg;
     if (wpd_decimal_integer(tok, len, &neg, &n) != 1 || (neg && n))
         return 0;
     for (uint64_t j = 0; j < n; j++) {
-        int rc = ply_stream_token(st, &tok, &len, path, err);
+        int rc = item_token(pr, e, item, 0, &tok, &len, path, err);
         if (rc <= 0)
-            return rc < 0 ? -1 : -2;
+            return rc;
     }
     return 1;
 }
 
-/* Ascii: the next token, for property p of the current item; a list's
- * items are skipped (*tok is then its count, valid only when it is bad).
- * Returns 1; 0 for a bad list count; -2 at end of file; -1 with err set. */
-static int next_ascii_value(ply_reader *pr, const ply_prop *p, const char **tok, size_t *len,
-                            const char *path, wpd_error *err)
+/* Ascii: the next token, for property k of item `item` of element e; a
+ * list's items are skipped (*tok is then its count, valid only when it is
+ * bad). Returns 1; 0 for a bad list count; -2 at end of file; -1 with err
+ * set. */
+static int next_ascii_value(ply_reader *pr, const ply_elem *e, uint64_t item, uint32_t k,
+                            const char **tok, size_t *len, const char *path, wpd_error *err)
 {
-    int rc = ply_stream_token(&pr->st, tok, len, path, err);
+    int rc = item_token(pr, e, item, k == 0, tok, len, path, err);
     if (rc <= 0)
-        return rc < 0 ? -1 : -2;
-    return p->is_list ? skip_ascii_list(&pr->st, *tok, *len, path, err) : 1;
+        return rc;
+    return pr->props[e->first_prop + k].is_list
+               ? skip_ascii_list(pr, e, item, *tok, *len, path, err)
+               : 1;
 }
 
 /* Ascii: skips count items of an element (tokens; lists by their count). */
@@ -137,8 +170,7 @@ static int skip_ascii_element(wpd_reader *r, ply_reader *pr, const ply_elem *e, 
         for (uint32_t k = 0; k < e->nprops; k++) {
             const char *tok;
             size_t len;
-            int rc = next_ascii_value(pr, &pr->props[e->first_prop + k], &tok, &len,
-                                      r->hdr.path, err);
+            int rc = next_ascii_value(pr, e, item, k, &tok, &len, r->hdr.path, err);
             if (rc == -1)
                 return -1;
             if (rc == -2)
@@ -162,6 +194,8 @@ static int skip_ascii_element(wpd_reader *r, ply_reader *pr, const ply_elem *e, 
 static int locate_vertices(wpd_reader *r, ply_reader *pr, wpd_error *err)
 {
     ply_stream_seek(&pr->st, pr->body_offset);
+    pr->st.line = pr->header_lines + 1;
+    pr->item_line = pr->header_lines;
     for (uint32_t i = 0; i < pr->vertex; i++) {
         const ply_elem *e = &pr->elems[i];
         int rc = pr->enc == WPD_PLY_ASCII ? skip_ascii_element(r, pr, e, err)
@@ -172,6 +206,34 @@ static int locate_vertices(wpd_reader *r, ply_reader *pr, wpd_error *err)
     pr->vertex_offset = pr->st.file_pos - (pr->st.end - pr->st.pos);
     pr->located = 1;
     return 0;
+}
+
+/* Binary, once the vertices fit: as far as the header fixes where the
+ * elements end (up to a list property), warns about a file that ends
+ * inside an element after the vertices or, when it fixes the end of the
+ * last one, about bytes after it. Neither changes the points: nothing
+ * reads past the vertices (PCL warns about the second too). */
+static void check_binary_end(wpd_reader *r, const ply_reader *pr)
+{
+    const uint64_t size = r->hdr.file_size;
+    uint64_t end = pr->vertex_offset;
+    for (uint32_t i = pr->vertex; i < pr->nelems; i++) {
+        const ply_elem *e = &pr->elems[i];
+        if (e->has_lists || ply_muladd_u64(e->count, e->item_bytes, end, &end))
+            return;
+        if (end > size) {
+            wpd_warn(&r->hdr.warnings,
+                     "%s: file ends %llu bytes short of the end of PLY element '%s'; the "
+                     "vertices are complete and nothing after them is read",
+                     r->hdr.path, (unsigned long long)(end - size), e->name);
+            return;
+        }
+    }
+    if (end < size)
+        wpd_warn(&r->hdr.warnings,
+                 "%s: %llu bytes after the last PLY element (which ends at offset %llu) belong "
+                 "to no element; ignored",
+                 r->hdr.path, (unsigned long long)(size - end), (unsigned long long)end);
 }
 
 /* Binary: finds vertex 0 now (so seeks work) and checks that the vertex data
@@ -203,7 +265,10 @@ static int locate_binary_vertices(wpd_reader *r, ply_reader *pr, wpd_error *err)
     uint64_t need = 0;
     if (ply_muladd_u64(v->count, v->item_bytes, 0, &need))
         need = UINT64_MAX;
-    return need > avail ? ply_fail_vertex_space(r, v, need, avail, off, err) : 0;
+    if (need > avail)
+        return ply_fail_vertex_space(r, v, need, avail, off, err);
+    check_binary_end(r, pr);
+    return 0;
 }
 
 /* ------------------------------------------------------------------ decoding */
@@ -334,6 +399,23 @@ static int read_binary_items(wpd_reader *r, ply_reader *pr, uint8_t *rec, size_t
     return 0;
 }
 
+/* Ascii, after the last vertex: nothing more on its line. The next token,
+ * if any, is on a later line: the next element's or bytes nothing reads. */
+static int check_last_vertex_line(ply_reader *pr, const char *path, wpd_error *err)
+{
+    const char *tok;
+    size_t len;
+    int rc = ply_stream_token(&pr->st, &tok, &len, path, err);
+    if (rc < 0)
+        return -1;
+    if (rc == 1 && pr->st.token_line == pr->item_line)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: PLY line %llu holds more values than one item of element 'vertex' has "
+                        "(each item must be a line of its own)",
+                        path, (unsigned long long)pr->item_line);
+    return 0;
+}
+
 /* Ascii: parses n vertices into packed little-endian records. */
 static int read_ascii_items(wpd_reader *r, ply_reader *pr, uint8_t *rec, size_t n,
                             wpd_error *err)
@@ -346,7 +428,7 @@ static int read_ascii_items(wpd_reader *r, ply_reader *pr, uint8_t *rec, size_t 
             const ply_prop *p = &props[k];
             const char *tok;
             size_t len;
-            int rc = next_ascii_value(pr, p, &tok, &len, r->hdr.path, err);
+            int rc = next_ascii_value(pr, v, pr->next + i, k, &tok, &len, r->hdr.path, err);
             if (rc == -1)
                 return -1;
             if (rc == -2)
@@ -371,7 +453,7 @@ static int read_ascii_items(wpd_reader *r, ply_reader *pr, uint8_t *rec, size_t 
                             p->is_list ? "list count" : wpd_type_name(p->type));
         }
     }
-    return 0;
+    return pr->next + n == pr->count ? check_last_vertex_line(pr, r->hdr.path, err) : 0;
 }
 
 /* ------------------------------------------------------------------ operations */

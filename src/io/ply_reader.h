@@ -44,6 +44,8 @@ typedef struct ply_reader {
     uint32_t record_size;
     uint64_t count;          /* vertices */
     uint64_t body_offset;    /* first byte after end_header */
+    uint32_t header_lines;   /* lines up to and including end_header */
+    uint64_t item_line;      /* ascii: line of the item read last */
     uint64_t vertex_offset;  /* binary: file offset of vertex 0 */
     int located;             /* stream positioned at vertex 0 (or fixed) */
     int fixed;               /* binary records of fixed size: direct reads */

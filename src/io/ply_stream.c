@@ -98,19 +98,25 @@ int ply_stream_skip(ply_stream *s, uint64_t n)
 /* A table load beats six comparisons in the hottest loop of the ascii
  * reader. */
 const uint8_t ply_space_table[256] = {
-    [' '] = 1, ['\n'] = 1, ['\r'] = 1, ['\t'] = 1, ['\v'] = 1, ['\f'] = 1,
+    [' '] = 1, ['\n'] = PLY_NEWLINE, ['\r'] = 1, ['\t'] = 1, ['\v'] = 1, ['\f'] = 1,
 };
 
 /* Finds the next whitespace-separated token. Returns 1 with *tok and *len set
- * (the token is followed by a separator or the NUL sentinel), 0 at end of
- * file, -1 with err set. */
+ * (the token is followed by a separator or the NUL sentinel) and the lines
+ * counted, 0 at end of file, -1 with err set. */
 int ply_stream_token(ply_stream *s, const char **tok, size_t *len, const char *path,
                      wpd_error *err)
 {
     for (;;) {
         char *p = s->buf + s->pos;
-        while (ply_is_space((unsigned char)*p))
+        uint8_t space;
+        uint64_t newlines = 0; /* a local: a store through s could alias buf */
+        while ((space = ply_space_table[(unsigned char)*p])) {
+            newlines += space == PLY_NEWLINE;
             p++;
+        }
+        s->line += newlines; /* the blanks are passed once: pos moves past them */
+        s->token_line = s->line;
         char *q = p;
         while (*q && !ply_is_space((unsigned char)*q))
             q++;

@@ -27,6 +27,9 @@ typedef struct ply_stream {
     size_t cap, pos, end;    /* unread bytes are buf[pos..end) */
     uint64_t file_pos;       /* file offset of buf[end] */
     int eof;
+    uint64_t line;           /* ascii: line of the next unread byte (the
+                                caller sets it after a seek) */
+    uint64_t token_line;     /* ascii: line of the token last returned */
 } ply_stream;
 
 /* Allocates the buffer for reading fd (file_size bytes long) from
@@ -48,13 +51,16 @@ int ply_stream_skip(ply_stream *s, uint64_t n);
 
 /* Finds the next whitespace-separated token. Returns 1 with *tok and *len
  * set (the token is followed by a separator or the NUL sentinel, and stays
- * valid until the next call), 0 at end of file, -1 with err set (read
+ * valid until the next call) and s->token_line the line it is on (s->line
+ * counts the newlines passed), 0 at end of file, -1 with err set (read
  * error, NUL byte in the data, token longer than PLY_TOKEN_MAX). */
 int ply_stream_token(ply_stream *s, const char **tok, size_t *len, const char *path,
                      wpd_error *err);
 
 /* Which bytes separate ascii tokens (header words too): space, \t, \n,
- * \v, \f, \r. NUL is not one: it ends a scan as the buffer sentinel. */
+ * \v, \f, \r. NUL is not one: it ends a scan as the buffer sentinel. The
+ * entry is PLY_NEWLINE for \n, 1 for the others. */
+#define PLY_NEWLINE 2
 extern const uint8_t ply_space_table[256];
 
 static inline int ply_is_space(unsigned char c) { return ply_space_table[c]; }

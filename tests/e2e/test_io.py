@@ -3,11 +3,12 @@
 import json
 import os
 import re
+import sys
 
 import numpy as np
 
 from formats import las_xyz_int, read_las, read_ply
-from harness import data, manifest, wpd
+from harness import REPO, Skip, data, manifest, wpd
 
 BBOX = re.compile(r"bbox=\[([-\d.]+)\.\.([-\d.]+), ([-\d.]+)\.\.([-\d.]+), ([-\d.]+)\.\.([-\d.]+)\]")
 NAN_NOTE = re.compile(r"(\d+) of (\d+) points have NaN")
@@ -165,6 +166,77 @@ def test_ply_to_las_maps_colour_and_keeps_extras():
     xyz = las_xyz_int(h) * np.array(h["scale"]) + np.array(h["offset"])
     err = np.abs(xyz - np.stack([v["x"], v["y"], v["z"]], 1).astype(np.float64)).max()
     assert err <= max(h["scale"]) / 2 + 1e-12, err
+
+
+def shared_pcio():
+    """../shared/tools/pcio.py, the independent reader, as a module."""
+    tools = os.path.join(REPO, "..", "shared", "tools")
+    if not os.path.exists(os.path.join(tools, "pcio.py")):
+        raise Skip("missing " + tools + "/pcio.py")
+    if tools not in sys.path:
+        sys.path.insert(0, tools)
+    import pcio
+    return pcio
+
+
+def blender_247_ply(path, encoding):
+    """A PLY as Blender 2.4x's exporter wrote it: a free-text line after the
+    format line (issue 14), float32/uint8/int32 type names, a face list."""
+    rng = np.random.default_rng(14)
+    v = np.zeros(5, [(k, "f4") for k in ("x", "y", "z", "nx", "ny", "nz")])
+    for k in v.dtype.names:
+        v[k] = rng.uniform(-10, 10, 5).round(3)
+    head = ("ply\nformat %s 1.0\n"
+            "Created by Blender3D 247 - www.blender.org, source file: 'scene.blend'\n"
+            "element vertex 5\n" % encoding
+            + "".join("property float32 %s\n" % k for k in v.dtype.names)
+            + "element face 1\nproperty list uint8 int32 vertex_indices\nend_header\n")
+    with open(path, "wb") as f:
+        f.write(head.encode())
+        if encoding == "ascii":
+            for row in v:
+                f.write(("%s \n" % " ".join("%.6f" % x for x in row)).encode())
+            f.write(b"3 0 1 2 \n")
+        else:
+            e = "<" if encoding == "binary_little_endian" else ">"
+            f.write(v.astype(v.dtype.newbyteorder(e)).tobytes())
+            f.write(np.array([3], "u1").tobytes() + np.array([0, 1, 2], e + "i4").tobytes())
+
+
+def test_ply_blender_247_header_reads_with_one_warning():
+    io = shared_pcio()
+    for enc in ("ascii", "binary_little_endian", "binary_big_endian"):
+        src = "blender_%s.ply" % enc
+        blender_247_ply(src, enc)
+        got = json.loads(wpd("info", "--json", src).stdout)["files"][0]
+        assert len(got["warnings"]) == 1 and "PLY header line 3" in got["warnings"][0], got
+        p = wpd("convert", src, "out.ply")
+        warnings = [ln for ln in p.stderr.splitlines() if "warning" in ln]
+        assert len(warnings) == 1, p.stderr
+        assert src in warnings[0] and "is not a keyword line" in warnings[0], warnings
+        # pcio keeps ascii values as decimals: the file says they are float32
+        want = io.read_points(src).astype(np.float32).astype(np.float64)
+        assert len(want) == 5 and np.array_equal(io.read_points("out.ply"), want), enc
+        os.remove("out.ply")
+
+
+def test_ply_odd_files_refused_with_one_line():
+    base = ("ply\nformat ascii 1.0\n%selement vertex 2\nproperty float x\nproperty float y\n"
+            "end_header\n%s")
+    cases = [("proprety float z\n", "1 2\n3 4\n", "line 3: unknown keyword on a line shaped"),
+             ("", "1 2 5\n3 4\n", "PLY line 7 holds more values"),
+             ("", "1\n2\n3 4\n", "PLY line 7: element 'vertex' item 0 has fewer values"),
+             ("1 2\n", "", "line 3: a number where a keyword belongs")]
+    for i, (extra, body, want) in enumerate(cases):
+        src = "odd_%d.ply" % i
+        with open(src, "w") as f:
+            f.write(base % (extra, body))
+        for cmd in (["info"], ["convert", src.replace(".ply", ".las")]):
+            p = wpd(cmd[0], src, *cmd[1:], check=False)
+            lines = p.stderr.strip().splitlines()
+            assert p.returncode == 2 and len(lines) == 1, (cmd, p.returncode, p.stderr)
+            assert src in lines[0] and want in lines[0], lines
+        assert not os.path.exists(src.replace(".ply", ".las"))
 
 
 def test_refuses_to_overwrite_and_output_equal_input():

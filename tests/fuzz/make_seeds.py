@@ -215,6 +215,12 @@ def ply_synthetic():
         for enc in ENCODINGS:
             out.append(ply_write(enc, ["comment synthetic fuzz seed"], elems,
                                  lambda e: len(e["items"])))
+    # Headers read with warnings (docs/formats.md, PLY): Blender 2.4x's
+    # free-text line, a blank line, the format line again.
+    for enc in ENCODINGS:
+        odd = ["Created by Blender3D 247 - www.blender.org, source file: seed.blend", "",
+               "format %s 1.0" % enc]
+        out.append(ply_write(enc, odd, elems, lambda e: len(e["items"])))
     return out
 
 

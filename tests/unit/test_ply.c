@@ -2,6 +2,7 @@
  * from ../shared/data, synthetic files in every encoding and type, error
  * cases, seeking, write/read round trips and a throughput figure. */
 #include "harness.h"
+#include "ply_files.h"
 
 #include "io/reader.h"
 #include "io/writer.h"
@@ -14,104 +15,6 @@
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
-
-/* ------------------------------------------------------------------ helpers */
-
-static void tmp_path(char *out, size_t size, const char *name)
-{
-    snprintf(out, size, "%s/%s", test_tmp_dir(), name);
-}
-
-static int write_bytes(const char *path, const void *data, size_t len)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return -1;
-    size_t n = fwrite(data, 1, len, f);
-    return fclose(f) == 0 && n == len ? 0 : -1;
-}
-
-/* All points of a file: concatenated records and coordinates. */
-typedef struct cloud {
-    size_t n;
-    uint32_t record_size;
-    uint8_t *records;
-    double *xyz;
-    uint64_t dropped;
-} cloud;
-
-static void cloud_free(cloud *c)
-{
-    free(c->records);
-    free(c->xyz);
-    memset(c, 0, sizeof *c);
-}
-
-/* Reads every point of an open reader in batches of batch_cap. Returns 0,
- * or -1 with err set. */
-static int read_all_from(wpd_reader *r, cloud *c, size_t batch_cap, wpd_error *err)
-{
-    const wpd_header *h = wpd_reader_header(r);
-    memset(c, 0, sizeof *c);
-    c->record_size = h->schema.record_size;
-    wpd_batch b;
-    if (wpd_batch_init(&b, batch_cap, c->record_size))
-        return -1;
-    size_t cap = 0;
-    int rc = 0;
-    for (;;) {
-        long n = wpd_reader_read(r, &b, err);
-        if (n < 0) {
-            rc = -1;
-            break;
-        }
-        if (n == 0)
-            break;
-        if (c->n + (size_t)n > cap) {
-            cap = (c->n + (size_t)n) * 2;
-            c->records = realloc(c->records, cap * c->record_size);
-            c->xyz = realloc(c->xyz, cap * 3 * sizeof(double));
-        }
-        memcpy(c->records + c->n * c->record_size, b.records, (size_t)n * c->record_size);
-        memcpy(c->xyz + 3 * c->n, b.xyz, (size_t)n * 3 * sizeof(double));
-        c->n += (size_t)n;
-    }
-    c->dropped = wpd_reader_dropped(r);
-    wpd_batch_free(&b);
-    return rc;
-}
-
-/* Opens path and reads every point. Returns 0, or -1 with err set. */
-static int read_all(const char *path, cloud *c, wpd_error *err)
-{
-    memset(c, 0, sizeof *c);
-    wpd_reader *r = wpd_reader_open(path, err);
-    if (!r)
-        return -1;
-    int rc = read_all_from(r, c, 1000, err);
-    wpd_reader_close(r);
-    return rc;
-}
-
-static int clouds_equal(const cloud *a, const cloud *b)
-{
-    return a->n == b->n && a->record_size == b->record_size &&
-           !memcmp(a->records, b->records, a->n * a->record_size) &&
-           !memcmp(a->xyz, b->xyz, a->n * 3 * sizeof(double));
-}
-
-/* Expects opening (or, if it opens, reading) path to fail with a message
- * that starts with the path and contains want. */
-static int fails_with(const char *path, const char *want, char *msg, size_t msg_size)
-{
-    wpd_error err;
-    wpd_error_clear(&err);
-    cloud c;
-    int rc = read_all(path, &c, &err);
-    cloud_free(&c);
-    snprintf(msg, msg_size, "%s", err.msg);
-    return rc < 0 && !strncmp(err.msg, path, strlen(path)) && strstr(err.msg, want) != NULL;
-}
 
 /* ------------------------------------------------------------------ shared files */
 
@@ -155,7 +58,7 @@ static void for_each_manifest_ply(const char *folder, int *failures_,
 static void check_shared_file(const char *path, const char *file, uint64_t count, int *failures_)
 {
     wpd_error err;
-    cloud c;
+    pf_cloud c;
     wpd_reader *r = wpd_reader_open(path, &err);
     CHECK_MSG(r != NULL, "%s", err.msg);
     if (!r)
@@ -166,7 +69,7 @@ static void check_shared_file(const char *path, const char *file, uint64_t count
               (unsigned long long)h->point_count, (unsigned long long)count);
     CHECK(h->schema.dim_x >= 0 && h->schema.dim_y >= 0);
     CHECK(strcmp(h->ply.elements[h->ply.vertex_element].name, "vertex") == 0);
-    int rc = read_all_from(r, &c, 777, &err);
+    int rc = pf_read_all_from(r, &c, 777, &err);
     CHECK_MSG(rc == 0, "%s", err.msg);
     uint64_t want_dropped = strstr(file, "office1_organized_nan") ? 52744 : 0;
     CHECK_MSG(c.n == count - want_dropped && c.dropped == want_dropped,
@@ -186,7 +89,7 @@ static void check_shared_file(const char *path, const char *file, uint64_t count
         same &= (s->dim_z < 0 ? 0.0 : wpd_dim_get(&s->dims[s->dim_z], rec)) == c.xyz[3 * i + 2];
     }
     CHECK_MSG(same, "%s: xyz differ from the record fields", file);
-    cloud_free(&c);
+    pf_cloud_free(&c);
     wpd_reader_close(r);
 }
 
@@ -204,13 +107,13 @@ TEST(ply_shared_platonic_shelf_endianness)
     char le[512], be[512];
     snprintf(le, sizeof le, "%s/ply/happly_platonic_shelf.ply", data);
     snprintf(be, sizeof be, "%s/ply/happly_platonic_shelf_big_endian.ply", data);
-    cloud a, b;
+    pf_cloud a, b;
     wpd_error err;
-    CHECK_MSG(read_all(le, &a, &err) == 0, "%s", err.msg);
-    CHECK_MSG(read_all(be, &b, &err) == 0, "%s", err.msg);
-    CHECK(a.n == 50 && clouds_equal(&a, &b));
-    cloud_free(&a);
-    cloud_free(&b);
+    CHECK_MSG(pf_read_all(le, &a, &err) == 0, "%s", err.msg);
+    CHECK_MSG(pf_read_all(be, &b, &err) == 0, "%s", err.msg);
+    CHECK(a.n == 50 && pf_clouds_equal(&a, &b));
+    pf_cloud_free(&a);
+    pf_cloud_free(&b);
 }
 
 TEST(ply_shared_sized_dims_without_z)
@@ -229,10 +132,10 @@ TEST(ply_shared_sized_dims_without_z)
     CHECK(h->schema.dim_z == -1 && h->schema.ndims == 4 && h->schema.record_size == 15);
     CHECK(h->schema.dims[0].type == WPD_I8 && h->schema.dims[1].type == WPD_U16);
     CHECK(h->ply.ncomments == 1 && !strcmp(h->ply.comments[0], "Generated by PDAL"));
-    cloud c;
-    CHECK(read_all_from(r, &c, 10, &err) == 0);
+    pf_cloud c;
+    CHECK(pf_read_all_from(r, &c, 10, &err) == 0);
     CHECK(c.n == 1 && c.xyz[2] == 0.0);
-    cloud_free(&c);
+    pf_cloud_free(&c);
     wpd_reader_close(r);
 }
 
@@ -250,7 +153,7 @@ TEST(ply_shared_bad_files_fail_cleanly)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char path[512], msg[WPD_ERRMSG_MAX];
         snprintf(path, sizeof path, "%s/bad/%s", data, cases[i].file);
-        CHECK_MSG(fails_with(path, cases[i].want, msg, sizeof msg), "%s: got '%s'",
+        CHECK_MSG(pf_fails_with(path, cases[i].want, msg, sizeof msg), "%s: got '%s'",
                   cases[i].file, msg);
     }
 }
@@ -462,8 +365,8 @@ static void check_synth(const synth_opts *o, int *failures_)
         CHECK(!strcmp(h->schema.dims[k].name, synth_props[k].name) &&
               h->schema.dims[k].type == synth_props[k].t);
     CHECK(wpd_reader_can_seek(r) == (o->enc != ENC_ASCII && !o->vertex_list));
-    cloud c;
-    CHECK_MSG(read_all_from(r, &c, 7, &err) == 0, "%s", err.msg);
+    pf_cloud c;
+    CHECK_MSG(pf_read_all_from(r, &c, 7, &err) == 0, "%s", err.msg);
     CHECK_MSG(c.n == o->nverts, "read %zu of %zu", c.n, o->nverts);
     if (c.n == o->nverts && c.n) {
         CHECK_MSG(!memcmp(c.records, expected, rs * c.n), "%s: records differ", path);
@@ -480,7 +383,7 @@ static void check_synth(const synth_opts *o, int *failures_)
         }
         CHECK_MSG(same, "%s: xyz differ", path);
     }
-    cloud_free(&c);
+    pf_cloud_free(&c);
     wpd_reader_close(r);
     free(expected);
 }
@@ -557,7 +460,7 @@ static void truncate_copy(const char *src, const char *dst, int ascii)
     } else {
         len -= 3;
     }
-    write_bytes(dst, buf, len);
+    pf_write_bytes(dst, buf, len);
     free(buf);
 }
 
@@ -573,7 +476,7 @@ TEST(ply_truncated_body_is_an_error)
             make_synth(full, &o, &expected);
             free(expected);
             truncate_copy(full, cut, enc == ENC_ASCII);
-            CHECK_MSG(fails_with(cut, "file ends after 39 of 40 vertices", msg, sizeof msg),
+            CHECK_MSG(pf_fails_with(cut, "file ends after 39 of 40 vertices", msg, sizeof msg),
                       "enc %d list %d: got '%s'", enc, vlist, msg);
         }
 }
@@ -591,7 +494,7 @@ TEST(ply_header_errors)
         {"ply\nformat ascii 1.0\nelement vertex 100\nproperty float x\nproperty float y\n"
          "end_header\n1 2\n", "element 'vertex' count 100"},
         {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n1 2\n",
-         "unknown keyword '1'"},
+         "a number where a keyword belongs (no end_header line?) '1'"},
         {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n",
          "no end_header"},
         {"ply\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
@@ -626,8 +529,8 @@ TEST(ply_header_errors)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char path[512], msg[WPD_ERRMSG_MAX];
         snprintf(path, sizeof path, "%s/hdr_err_%zu.ply", test_tmp_dir(), i);
-        write_bytes(path, cases[i].text, strlen(cases[i].text));
-        CHECK_MSG(fails_with(path, cases[i].want, msg, sizeof msg), "case %zu: got '%s'", i, msg);
+        pf_write_bytes(path, cases[i].text, strlen(cases[i].text));
+        CHECK_MSG(pf_fails_with(path, cases[i].want, msg, sizeof msg), "case %zu: got '%s'", i, msg);
     }
     /* A header longer than the limit. */
     size_t big = (1u << 20) + 100;
@@ -637,10 +540,10 @@ TEST(ply_header_errors)
     for (size_t i = 100; i < big; i += 100)
         memcpy(text + i - 9, "\ncomment ", 9);
     char path[512], msg[WPD_ERRMSG_MAX];
-    tmp_path(path, sizeof path, "hdr_huge.ply");
-    write_bytes(path, text, big);
+    pf_tmp_path(path, sizeof path, "hdr_huge.ply");
+    pf_write_bytes(path, text, big);
     free(text);
-    CHECK_MSG(fails_with(path, "no end_header line within", msg, sizeof msg), "got '%s'", msg);
+    CHECK_MSG(pf_fails_with(path, "no end_header line within", msg, sizeof msg), "got '%s'", msg);
 }
 
 TEST(ply_ascii_numbers)
@@ -653,7 +556,7 @@ TEST(ply_ascii_numbers)
     };
     const size_t nt = sizeof tokens / sizeof tokens[0];
     char path[512];
-    tmp_path(path, sizeof path, "numbers.ply");
+    pf_tmp_path(path, sizeof path, "numbers.ply");
     FILE *f = fopen(path, "w");
     fprintf(f, "ply\nformat ascii 1.0\nelement vertex %zu\nproperty double x\n"
                "property double y\nproperty float z\nproperty short s\nend_header\n", nt + 4);
@@ -662,9 +565,9 @@ TEST(ply_ascii_numbers)
                 fabs(strtod(tokens[i], NULL)) <= FLT_MAX ? tokens[i] : "1", i % 2 ? "-7" : "3.0");
     fprintf(f, "nan 1 2 0\n1 -inf 2 0\n1 2 NaN 0\n1 2 infinity 0\n");
     fclose(f);
-    cloud c;
+    pf_cloud c;
     wpd_error err;
-    CHECK_MSG(read_all(path, &c, &err) == 0, "%s", err.msg);
+    CHECK_MSG(pf_read_all(path, &c, &err) == 0, "%s", err.msg);
     CHECK(c.n == nt && c.dropped == 4);
     for (size_t i = 0; i < c.n && i < nt; i++) {
         double want = strtod(tokens[i], NULL);
@@ -682,7 +585,7 @@ TEST(ply_ascii_numbers)
         CHECK(s == (i % 2 ? -7 : 3));
         CHECK(c.xyz[3 * i] == want && c.xyz[3 * i + 2] == (double)want_z);
     }
-    cloud_free(&c);
+    pf_cloud_free(&c);
 }
 
 /* ------------------------------------------------------------------ writer */
@@ -696,8 +599,8 @@ static void check_round_trip(const char *src, int ascii, int *failures_)
     CHECK_MSG(r != NULL, "%s", err.msg);
     if (!r)
         return;
-    cloud a, b;
-    CHECK_MSG(read_all_from(r, &a, 999, &err) == 0, "%s", err.msg);
+    pf_cloud a, b;
+    CHECK_MSG(pf_read_all_from(r, &a, 999, &err) == 0, "%s", err.msg);
     const wpd_header *h = wpd_reader_header(r);
     char out[512];
     const char *base = strrchr(src, '/') ? strrchr(src, '/') + 1 : src;
@@ -706,7 +609,7 @@ static void check_round_trip(const char *src, int ascii, int *failures_)
     wpd_writer *w = wpd_writer_open(out, h, &opt, &err);
     CHECK_MSG(w != NULL, "%s", err.msg);
     if (!w) {
-        cloud_free(&a);
+        pf_cloud_free(&a);
         wpd_reader_close(r);
         return;
     }
@@ -746,13 +649,13 @@ static void check_round_trip(const char *src, int ascii, int *failures_)
         CHECK(h2->ply.nobj_info == h->ply.nobj_info);
         for (uint32_t i = 0; i < h2->ply.nobj_info && i < h->ply.nobj_info; i++)
             CHECK(!strcmp(h2->ply.obj_info[i], h->ply.obj_info[i]));
-        CHECK_MSG(read_all_from(r2, &b, 4096, &err) == 0, "%s", err.msg);
-        CHECK_MSG(clouds_equal(&a, &b), "%s (%s): round trip differs", src,
+        CHECK_MSG(pf_read_all_from(r2, &b, 4096, &err) == 0, "%s", err.msg);
+        CHECK_MSG(pf_clouds_equal(&a, &b), "%s (%s): round trip differs", src,
                   ascii ? "ascii" : "binary");
-        cloud_free(&b);
+        pf_cloud_free(&b);
         wpd_reader_close(r2);
     }
-    cloud_free(&a);
+    pf_cloud_free(&a);
     wpd_reader_close(r);
 }
 
@@ -855,8 +758,8 @@ TEST(ply_writer_unordered_dims_and_header)
         for (const char *p = strstr(hdr, "\ncomment"); p; p = strstr(p + 1, "\ncomment"))
             CHECK(p[8] == ' ');
 
-        cloud c;
-        CHECK_MSG(read_all(path, &c, &err) == 0, "%s", err.msg);
+        pf_cloud c;
+        CHECK_MSG(pf_read_all(path, &c, &err) == 0, "%s", err.msg);
         CHECK(c.n == n && c.record_size == 23);
         int same = 1;
         for (size_t i = 0; i < c.n; i++) {
@@ -873,7 +776,7 @@ TEST(ply_writer_unordered_dims_and_header)
             same &= c.xyz[3 * i + 2] == (double)(float)(i * 0.1);
         }
         CHECK_MSG(same, "ascii=%d: values differ", ascii);
-        cloud_free(&c);
+        pf_cloud_free(&c);
         wpd_batch_free(&b);
     }
 }
@@ -890,7 +793,7 @@ TEST(ply_writer_refuses_bad_schemas)
     h.schema.dim_y = -1;
     h.schema.dim_z = -1;
     char path[512];
-    tmp_path(path, sizeof path, "refused.ply");
+    pf_tmp_path(path, sizeof path, "refused.ply");
     wpd_write_options opt = {.overwrite = 1};
     wpd_error err;
     wpd_writer *w = wpd_writer_open(path, &h, &opt, &err);
