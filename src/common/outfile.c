@@ -120,12 +120,16 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
     wpd_outfile_sweep_stale(path);
     memset(f, 0, sizeof *f);
     f->fd = -1;
-    if (strlen(path) >= sizeof f->final_path || make_temp_name(f, path))
+    if (strlen(path) >= sizeof f->final_path || make_temp_name(f, path)) {
+        f->temp_path[0] = '\0'; /* abort must not unlink a cut name */
         return wpd_fail(err, WPD_E_USAGE, "%s: output path too long", path);
+    }
     strcpy(f->final_path, path);
     struct stat st;
-    if (!overwrite && stat(path, &st) == 0)
+    if (!overwrite && stat(path, &st) == 0) {
+        f->temp_path[0] = '\0';
         return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)", path);
+    }
     sigset_t old;
     block_cleanup_signals(&old);
     f->fd = mkostemp(f->temp_path, O_CLOEXEC);
@@ -213,6 +217,46 @@ void wpd_outfile_abort(wpd_outfile *f)
         wpd_tmpdir_untrack_file(f->temp_path);
     }
     f->temp_path[0] = '\0';
+}
+
+void wpd_outfile_clear_all(wpd_outfile *files, int n)
+{
+    for (int i = 0; i < n; i++) {
+        files[i].fd = -1;
+        files[i].temp_path[0] = '\0';
+    }
+}
+
+int wpd_outfile_rename_all(wpd_outfile *files, int n, wpd_error *err)
+{
+    sigset_t old;
+    block_cleanup_signals(&old);
+    int rc = 0;
+    for (int i = 0; i < n && rc == 0; i++)
+        if (files[i].temp_path[0])
+            rc = wpd_outfile_rename(&files[i], err);
+    wpd_outfile_abort_all(files, n); /* no-op for the renamed ones */
+    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    return rc;
+}
+
+void wpd_outfile_abort_all(wpd_outfile *files, int n)
+{
+    for (int i = 0; i < n; i++)
+        wpd_outfile_abort(&files[i]);
+}
+
+int wpd_stdout_flush(wpd_error *err)
+{
+    errno = 0;
+    int flushed = fflush(stdout) == 0;
+    if (flushed && !ferror(stdout))
+        return 0;
+    /* A write that failed earlier, while printing, left the error flag but
+     * not its errno: then all that is known is that output was lost. */
+    if (flushed || errno == 0)
+        errno = EIO;
+    return wpd_fail_errno(err, "standard output");
 }
 
 int wpd_path_is_one_of(const char *path, char *const *paths, int n)
