@@ -62,8 +62,9 @@ void wpd_outfile_clear_all(wpd_outfile *files, int n);
 
 /* Renames the finished files[0..n-1] (wpd_outfile_finish done; cleared
  * ones are skipped) into place, in order, with SIGINT, SIGTERM and SIGHUP
- * held back until the last is renamed: a signal cannot leave some in place
- * and the others removed (it takes effect after, the outputs complete).
+ * held back until the last is renamed (wpd_tmpdir_hold_signals): a signal
+ * cannot leave some in place and the others removed (it takes effect
+ * after, the outputs complete).
  * On a failure the files not yet renamed are removed; those renamed stay
  * (renames in a directory that is still there do not fail). Returns 0 or
  * -1 with err naming the file. */
