@@ -3,6 +3,7 @@
 #include "metrics.h"
 
 #include "common/json.h"
+#include "common/outfile.h"
 #include "core/grid.h"
 #include "core/knn.h"
 #include "core/pca.h"
@@ -542,9 +543,7 @@ static int run(const char *orig_path, const char *res_path, int json, wpd_error 
         wpd_metrics_write_json(stdout, &m);
     else
         wpd_metrics_write_text(stdout, &m);
-    if (fflush(stdout) || ferror(stdout))
-        return wpd_fail_errno(err, "standard output");
-    return 0;
+    return wpd_stdout_flush(err);
 }
 
 int wpd_metrics_main(int argc, char **argv)

@@ -2,6 +2,7 @@
  * usage text, messages and exit statuses.
  */
 #include "preview.h"
+#include "common/outfile.h"
 #include "io/reader.h"
 
 #include <getopt.h>
@@ -97,8 +98,11 @@ int wpd_preview_main(int argc, char **argv)
         char text[4096];
         wpd_preview_describe(&sum, paths, text, sizeof text);
         printf("%swrote %s (%d x %d)\n", text, out, sum.width, sum.height);
-        if (fflush(stdout) || ferror(stdout))
-            return WPD_E_IO;
+        /* OUT is in place and complete; a lost summary still fails. */
+        if (wpd_stdout_flush(&err)) {
+            fprintf(stderr, "wpd preview: %s\n", err.msg);
+            return err.code;
+        }
     }
     return 0;
 }

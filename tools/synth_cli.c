@@ -184,5 +184,8 @@ int wpd_synth_main(int argc, char **argv)
     if (wpd_synth_generate(&checked, &sum, &err))
         return cli_fail(err.code ? (int)err.code : WPD_E_IO, "%s", err.msg);
     print_summary(&opt, &sum);
+    /* The files are in place and complete; a lost summary still fails. */
+    if (wpd_stdout_flush(&err))
+        return cli_fail(err.code, "%s", err.msg);
     return 0;
 }

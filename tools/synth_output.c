@@ -4,8 +4,10 @@
  * tiles and commits the files together.
  */
 #include "synth_output.h"
+#include "common/tmpdir.h"
 
 #include <inttypes.h>
+#include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -323,8 +325,28 @@ void synth_emitter_abort(emitter *e)
         wpd_writer_abort(e->tiles[i].w);
         wpd_batch_free(&e->tiles[i].b);
     }
+    if (e->done)
+        wpd_outfile_abort_all(e->done, e->ntiles);
+    if (e->dir[0])
+        wpd_tmpdir_untrack_outputs(e->dir);
+    e->dir[0] = '\0';
     free(e->tiles);
+    free(e->done);
     e->tiles = NULL;
+    e->done = NULL;
+}
+
+/* Up to 256 tiles are open at once, more than the signal handlers'
+ * registry holds one by one: the folder's temporary outputs of this
+ * process are tracked as a whole (without a slot, the next run's sweep
+ * removes them). */
+static void track_folder(emitter *e)
+{
+    char buf[1024];
+    snprintf(buf, sizeof buf, "%s", e->opt->output);
+    snprintf(e->dir, sizeof e->dir, "%s", dirname(buf));
+    if (wpd_tmpdir_track_outputs(e->dir))
+        e->dir[0] = '\0';
 }
 
 /* Names tile i (0-based) of e, gives it a zeroed batch of cap points (so
@@ -356,8 +378,11 @@ int synth_emitter_open(emitter *e, const wpd_synth_options *opt, double side, wp
         e->kmin[a] = INT64_MAX, e->kmax[a] = INT64_MIN;
     build_header(e);
     e->tiles = calloc((size_t)e->ntiles, sizeof *e->tiles);
-    if (!e->tiles)
+    e->done = malloc((size_t)e->ntiles * sizeof *e->done);
+    if (!e->tiles || !e->done)
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", opt->output);
+    wpd_outfile_clear_all(e->done, e->ntiles);
+    track_folder(e);
     size_t cap = BATCH_BUDGET / e->ntiles;
     cap = cap > BATCH_POINTS ? BATCH_POINTS : cap < 1024 ? 1024 : cap;
     if (cap > opt->points)
@@ -368,7 +393,9 @@ int synth_emitter_open(emitter *e, const wpd_synth_options *opt, double side, wp
     return 0;
 }
 
-/* Flushes and commits every tile; on failure removes the others too. */
+/* Flushes and finishes every tile, then renames them all: a partial set
+ * is useless, and removing the tiles renamed so far would not bring back
+ * the files they replaced. */
 int synth_emitter_close(emitter *e, wpd_error *err)
 {
     for (int i = 0; i < e->ntiles; i++)
@@ -377,15 +404,10 @@ int synth_emitter_close(emitter *e, wpd_error *err)
     for (int i = 0; i < e->ntiles; i++) {
         wpd_writer *w = e->tiles[i].w;
         e->tiles[i].w = NULL;
-        if (wpd_writer_close(w, err)) {
-            /* The tiles committed so far are complete, but a partial set is
-             * useless: remove them. */
-            for (int j = 0; j < i; j++)
-                remove(e->tiles[j].path);
+        if (wpd_writer_close_pending(w, &e->done[i], err))
             return -1;
-        }
     }
-    return 0;
+    return wpd_outfile_rename_all(e->done, e->ntiles, err);
 }
 
 void synth_emitter_bounds(const emitter *e, double min[3], double max[3])

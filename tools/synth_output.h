@@ -41,6 +41,9 @@ typedef struct emitter {
     char comment_buf[2][128];
     int las;                        /* LAS PDRF 3 records, else PLY vertices */
     tile_out *tiles;
+    wpd_outfile *done;              /* [ntiles] finished, not yet renamed */
+    char dir[1024];                 /* the tiles' folder, its temporary
+                                       outputs tracked; "" when not */
     int ntiles, columns, rows;
     double side;
     uint64_t written, target;
@@ -66,8 +69,10 @@ int synth_emitter_open(emitter *e, const wpd_synth_options *opt, double side, wp
  * err set. */
 int synth_emit_point(emitter *e, const point *p, wpd_error *err);
 
-/* Writes what is buffered and commits every file; should one fail, the
- * files committed so far are removed too. Returns 0 or -1 with err set. */
+/* Writes what is buffered, finishes every file under its temporary name,
+ * then renames them all: they appear together or not at all (a failed
+ * --force run leaves the files it would have replaced as they were).
+ * Returns 0 or -1 with err set. */
 int synth_emitter_close(emitter *e, wpd_error *err);
 
 /* Discards the files not yet committed and frees e (after close too). */

@@ -75,6 +75,8 @@ static int convert(char **inputs, int n, const char *output, wpd_write_options *
                 fprintf(stderr, "wpd convert: warning: %llu points with non-finite coordinates "
                         "dropped\n", (unsigned long long)wpd_cloud_dropped(cloud));
             printf("wrote %llu points to %s\n", (unsigned long long)written, output);
+            /* OUT is in place and complete; a lost summary still fails. */
+            rc = wpd_stdout_flush(err);
         }
         wpd_header_free(&out);
     }

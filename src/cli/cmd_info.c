@@ -1,6 +1,7 @@
 /* cmd_info.c - `wpd info FILE...`: what a file holds, as text or JSON. */
 #include "cli/commands.h"
 #include "common/json.h"
+#include "common/outfile.h"
 #include "common/printable.h"
 #include "io/cloud.h"
 #include "io/las.h"
@@ -297,6 +298,11 @@ int wpd_cmd_info(int argc, char **argv)
     }
     if (opt.json)
         fputs("\n]}\n", stdout);
-    fflush(stdout);
+    /* What info prints is its product: losing it (a full disk) fails. */
+    wpd_error err = {0};
+    if (wpd_stdout_flush(&err)) {
+        int code = wpd_report_error("info", &err);
+        status = status ? status : code;
+    }
     return status;
 }

@@ -313,7 +313,7 @@ static long peak_rss_kb(void)
 
 /* The paper's quality measures of the selection against the inputs, as
  * the JSON `wpd metrics --json` prints, in *json (malloc'd). */
-static int measure(char **inputs, int ninputs, const wpd_selection *sel,
+static int measure(char *const *inputs, int ninputs, const wpd_selection *sel,
                    const resample_options *o, char **json, wpd_error *err)
 {
     double *orig = NULL;
@@ -363,14 +363,76 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
            o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
 }
 
+/* Writes the outputs, each finished under its temporary name in files[]
+ * (one per input with --per-input). */
 static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
-                         const resample_options *o, wpd_error *err)
+                         const resample_options *o, wpd_outfile *files, wpd_error *err)
 {
     if (o->per_input)
         return wpd_selection_write_per_input(sel, cloud, file_count, o->per_input, &o->write,
-                                             err);
+                                             files, err);
     return wpd_selection_write(sel, 0, sel->n, wpd_cloud_header(cloud, 0), o->output,
-                               &o->write, err);
+                               &o->write, files, err);
+}
+
+/* The outputs (files[0..nout-1]) and the report (files[nout]) of a run,
+ * finished under temporary names until they are renamed together. */
+typedef struct pending_files {
+    wpd_outfile *files;
+    int nout;
+    int tracked;              /* the --per-input folder's temporary outputs */
+} pending_files;
+
+static int pending_open(pending_files *p, const wpd_cloud *cloud, const resample_options *o,
+                        wpd_error *err)
+{
+    p->nout = o->per_input ? wpd_cloud_nfiles(cloud) : 1;
+    p->files = malloc((size_t)(p->nout + 1) * sizeof *p->files);
+    if (!p->files)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %d outputs", p->nout);
+    wpd_outfile_clear_all(p->files, p->nout + 1);
+    /* More finished outputs than the signal handlers' registry holds one
+     * by one: they are removed as "this process's temporary outputs in
+     * the folder". Without a slot, the next run's sweep removes them. */
+    p->tracked = o->per_input && wpd_tmpdir_track_outputs(o->per_input) == 0;
+    return 0;
+}
+
+/* Removes what was not renamed. */
+static void pending_close(pending_files *p, const resample_options *o)
+{
+    if (!p->files)
+        return;
+    wpd_outfile_abort_all(p->files, p->nout + 1);
+    if (p->tracked)
+        wpd_tmpdir_untrack_outputs(o->per_input);
+    free(p->files);
+    p->files = NULL;
+}
+
+/* After the outputs are written: the metrics, the report, then every file
+ * renamed into place. The report is written and finished (flushed, closed)
+ * before any rename, so that one that cannot be written (disk full, data
+ * lost at fsync or close) fails the run with no output in place; it is
+ * renamed last, after the outputs it describes. */
+static int deliver(wpd_run_info *info, char **metrics_json, const wpd_selection *sel,
+                   pending_files *p, const resample_options *o, wpd_error *err)
+{
+    if (o->metrics && measure(info->inputs, info->ninputs, sel, o, metrics_json, err))
+        return -1;
+    info->metrics_json = *metrics_json;
+    if (o->report && wpd_report_write(o->report, info, &p->files[p->nout], err))
+        return -1;
+    if (wpd_outfile_rename_all(p->files, p->nout + 1, err))
+        return -1;
+    if (o->quiet || (!o->verbose && !isatty(STDOUT_FILENO)))
+        return 0;
+    print_summary(info, o);
+    if (*metrics_json)
+        printf("  quality (wpd metrics --json): %s", *metrics_json);
+    /* The files are in place and complete: a summary that is lost still
+     * fails the run, so that it is not lost unseen. */
+    return wpd_stdout_flush(err);
 }
 
 /* Refuses, before any work, outputs that exist (without --force) or that
@@ -415,6 +477,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     int rc = -1;
     wpd_selection sel = {0};
     wpd_resample_result res = {0};
+    pending_files pending = {0};
     char *metrics_json = NULL;
     wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
                          .per_input = o->per_input, .params = &o->params, .run = &res};
@@ -424,6 +487,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
                  "percentage", o->count_text);
         goto done;
     }
+    if (pending_open(&pending, cloud, o, err))
+        goto done;
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
     output_lattice(cloud, o, o->params.resolution);
@@ -448,23 +513,16 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     double tw = omp_get_wtime();
     wpd_progress_phase(&o->progress, "write", sel.n, "points");
     if (rc == 0)
-        rc = write_outputs(&sel, cloud, res.file_count, o, err);
+        rc = write_outputs(&sel, cloud, res.file_count, o, pending.files, err);
     wpd_progress_add(&o->progress, rc == 0 ? sel.n : 0);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
     info.peak_rss_kb = peak_rss_kb();
-    if (rc == 0 && o->metrics)
-        rc = measure(inputs, ninputs, &sel, o, &metrics_json, err);
-    info.metrics_json = metrics_json;
-    if (rc == 0 && !o->quiet && (o->verbose || isatty(STDOUT_FILENO))) {
-        print_summary(&info, o);
-        if (metrics_json)
-            printf("  quality (wpd metrics --json): %s", metrics_json);
-    }
-    if (rc == 0 && o->report)
-        rc = wpd_report_write(o->report, &info, err);
+    if (rc == 0)
+        rc = deliver(&info, &metrics_json, &sel, &pending, o, err);
 done:
+    pending_close(&pending, o);
     wpd_resample_result_free(&res);
     free(metrics_json);
     wpd_cloud_close(cloud);

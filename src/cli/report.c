@@ -4,7 +4,6 @@
 #include <stdlib.h>
 
 #include "common/json.h"
-#include "common/outfile.h"
 
 static void field_num(FILE *f, const char *key, double v, int comma)
 {
@@ -114,7 +113,8 @@ static void write_body(FILE *f, const wpd_run_info *r)
     fprintf(f, "  \"metrics\": %s}\n", r->metrics_json ? r->metrics_json : "null\n");
 }
 
-int wpd_report_write(const char *path, const wpd_run_info *info, wpd_error *err)
+int wpd_report_write(const char *path, const wpd_run_info *info, wpd_outfile *pending,
+                     wpd_error *err)
 {
     char *text = NULL;
     size_t len = 0;
@@ -122,13 +122,15 @@ int wpd_report_write(const char *path, const wpd_run_info *info, wpd_error *err)
     if (!mem)
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for the report", path);
     write_body(mem, info);
-    fclose(mem);
-    wpd_outfile out;
-    int rc = wpd_outfile_open(&out, path, 1, err);
-    if (rc == 0 && (rc = wpd_outfile_write(&out, text, len, err)) == 0)
-        rc = wpd_outfile_commit(&out, err);
-    else if (out.fd >= 0 || out.temp_path[0])
-        wpd_outfile_abort(&out);
+    if (fclose(mem) != 0) {
+        free(text);
+        return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for the report", path);
+    }
+    int rc = wpd_outfile_open(pending, path, 1, err);
+    if (rc == 0 && (rc = wpd_outfile_write(pending, text, len, err)) == 0)
+        rc = wpd_outfile_finish(pending, err);
+    if (rc)
+        wpd_outfile_abort(pending);
     free(text);
     return rc;
 }

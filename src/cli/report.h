@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
+#include "common/outfile.h"
 #include "resample/resample.h"
 
 typedef struct wpd_run_info {
@@ -28,8 +29,12 @@ typedef struct wpd_run_info {
     const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
 } wpd_run_info;
 
-/* Writes info as one JSON object to path (temporary file, then renamed).
- * Returns 0 or -1 with err set. */
-int wpd_report_write(const char *path, const wpd_run_info *info, wpd_error *err);
+/* Writes info as one JSON object to a temporary file beside path,
+ * finished (flushed and closed) and described by *pending: the caller
+ * renames it with the outputs (wpd_outfile_rename_all), so that a report
+ * that cannot be written fails the run before any output is in place.
+ * Returns 0, or -1 with err set and nothing left. */
+int wpd_report_write(const char *path, const wpd_run_info *info, wpd_outfile *pending,
+                     wpd_error *err);
 
 #endif

@@ -7,7 +7,6 @@
 #include <string.h>
 
 #include "common/testhook.h"
-#include "common/tmpdir.h"
 #include "io/layout.h"
 
 /* 1 when a PLY output's x, y or z is float32 and float32 spacing at the
@@ -49,8 +48,8 @@ static int plan_output(const wpd_selection *sel, size_t first, size_t count,
     return 0;
 }
 
-/* Writes the points first..first+count of sel to path; with pending, the
- * finished file stays under its temporary name, described there. */
+/* Writes the points first..first+count of sel to path; the finished file
+ * stays under its temporary name, described by *pending. */
 static int write_points(const wpd_selection *sel, size_t first, size_t count,
                         const wpd_header *in, const char *path, const wpd_write_options *opt,
                         wpd_outfile *pending, wpd_error *err)
@@ -79,7 +78,7 @@ static int write_points(const wpd_selection *sel, size_t first, size_t count,
         if (wpd_writer_write(w, &dst, err))
             goto done;
     }
-    rc = pending ? wpd_writer_close_pending(w, pending, err) : wpd_writer_close(w, err);
+    rc = wpd_writer_close_pending(w, pending, err);
     w = NULL;
 done:
     wpd_writer_abort(w);
@@ -91,9 +90,9 @@ done:
 
 int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
                         const wpd_header *in, const char *path, const wpd_write_options *opt,
-                        wpd_error *err)
+                        wpd_outfile *pending, wpd_error *err)
 {
-    return write_points(sel, first, count, in, path, opt, NULL, err);
+    return write_points(sel, first, count, in, path, opt, pending, err);
 }
 
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size)
@@ -106,25 +105,14 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
 
 int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
                                   const uint64_t *file_count, const char *outdir,
-                                  const wpd_write_options *opt, wpd_error *err)
+                                  const wpd_write_options *opt, wpd_outfile *pending,
+                                  wpd_error *err)
 {
-    /* All outputs or none: each is finished under its temporary name and
-     * renamed only when every one is complete. A run that stopped halfway
-     * must not leave half the folder done: with --skip-existing the next
-     * run would resample the other half on its own, with a seam and a
-     * different count. */
+    /* All outputs or none: a run that stopped halfway must not leave half
+     * the folder done: with --skip-existing the next run would resample
+     * the other half on its own, with a seam and a different count. */
     int nfiles = wpd_cloud_nfiles(cloud);
-    wpd_outfile *done = malloc((nfiles ? (size_t)nfiles : 1) * sizeof *done);
-    if (!done)
-        return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for %d outputs", outdir, nfiles);
-    for (int f = 0; f < nfiles; f++) {
-        done[f].fd = -1;
-        done[f].temp_path[0] = '\0';
-    }
-    /* More finished outputs than the signal handlers' registry holds one
-     * by one: they are removed as "this process's temporary outputs in
-     * outdir". Without a slot, the next run's sweep removes them. */
-    int tracked = wpd_tmpdir_track_outputs(outdir) == 0;
+    wpd_outfile_clear_all(pending, nfiles);
     int rc = 0;
     uint64_t file_start = 0;
     size_t first = 0;
@@ -136,21 +124,14 @@ int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *clo
             count++;
         char path[2048];
         wpd_per_input_path(outdir, in->path, path, sizeof path);
-        rc = write_points(sel, first, count, in, path, opt, &done[f], err);
+        rc = write_points(sel, first, count, in, path, opt, &pending[f], err);
         first += count;
         file_start = file_end;
     }
-    if (rc == 0)
+    if (rc)
+        wpd_outfile_abort_all(pending, nfiles);
+    else
         wpd_test_stall("per-input");
-    /* Renames in one directory: they fail only if the directory goes away
-     * or becomes read-only between two of them. */
-    for (int f = 0; f < nfiles && rc == 0; f++)
-        rc = wpd_outfile_rename(&done[f], err);
-    for (int f = 0; f < nfiles; f++)
-        wpd_outfile_abort(&done[f]); /* no-op for the renamed ones */
-    if (tracked)
-        wpd_tmpdir_untrack_outputs(outdir);
-    free(done);
     return rc;
 }
 

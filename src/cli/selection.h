@@ -23,10 +23,13 @@ typedef struct wpd_selection {
 } wpd_selection;
 
 /* Writes sel to path (format from its extension), in the layout that
- * wpd_layout_plan gives for the input header in. Returns 0 or -1. */
+ * wpd_layout_plan gives for the input header in, finished (flushed and
+ * closed) under its temporary name, described by *pending: the caller
+ * renames it with wpd_outfile_rename_all (with the report, if any).
+ * Returns 0, or -1 with nothing left. */
 int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
                         const wpd_header *in, const char *path, const wpd_write_options *opt,
-                        wpd_error *err);
+                        wpd_outfile *pending, wpd_error *err);
 
 /* The --per-input output of input: "<outdir>/<input's file name>", in buf. */
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size);
@@ -34,12 +37,17 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
 /* Writes one output per input file into outdir (same file name, same
  * format as the input): the points of sel whose global index falls in that
  * file (file_count[i] finite points each, in order). Files that receive no
- * point are still written (empty). All appear together: each is renamed
- * into place only after every one is complete. Returns 0, or -1 with no
- * new output left (the outputs an earlier run made stay as they were). */
+ * point are still written (empty). All appear together: each is finished
+ * under its temporary name, described by pending[i] (one per input file),
+ * and the caller renames them all with wpd_outfile_rename_all once every
+ * one is complete; it also keeps outdir's temporary outputs tracked
+ * (wpd_tmpdir_track_outputs) until then, as they can be more than the
+ * signal handlers' registry holds one by one. Returns 0, or -1 with no new
+ * output left (the outputs an earlier run made stay as they were). */
 int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
                                   const uint64_t *file_count, const char *outdir,
-                                  const wpd_write_options *opt, wpd_error *err);
+                                  const wpd_write_options *opt, wpd_outfile *pending,
+                                  wpd_error *err);
 
 void wpd_selection_free(wpd_selection *sel);
 

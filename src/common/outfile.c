@@ -6,11 +6,9 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <libgen.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -46,19 +44,6 @@ int wpd_outfile_sweep_stale(const char *path)
     return wpd_tmpdir_sweep_dead(dir, prefix, 0);
 }
 
-/* SIGINT, SIGTERM and SIGHUP blocked on this thread (old mask in *old):
- * between creating a file and registering it for removal, a signal would
- * leave the file behind (the handlers remove only what is registered). */
-static void block_cleanup_signals(sigset_t *old)
-{
-    sigset_t block;
-    sigemptyset(&block);
-    sigaddset(&block, SIGINT);
-    sigaddset(&block, SIGTERM);
-    sigaddset(&block, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &block, old);
-}
-
 static void lock_path(const char *path, char *out, size_t size)
 {
     char dir[1024], base[1024];
@@ -70,8 +55,9 @@ int wpd_output_lock(const char *path, wpd_error *err)
 {
     char lock[2200];
     lock_path(path, lock, sizeof lock);
-    sigset_t old;
-    block_cleanup_signals(&old);
+    /* Between creating the file and registering it for removal, a signal
+     * would leave it behind (the handlers remove only what is registered). */
+    wpd_tmpdir_hold_signals();
     int fd = -1;
     /* The holder unlinks the lock file when done, so the file locked here
      * may already be unlinked by the time we hold it: then a third run can
@@ -80,12 +66,13 @@ int wpd_output_lock(const char *path, wpd_error *err)
     for (int attempt = 0; attempt < 100; attempt++) {
         fd = open(lock, O_RDWR | O_CREAT | O_CLOEXEC, 0644);
         if (fd < 0) {
-            pthread_sigmask(SIG_SETMASK, &old, NULL);
-            return wpd_fail_errno(err, "%s: cannot create lock file %s", path, lock);
+            wpd_fail_errno(err, "%s: cannot create lock file %s", path, lock);
+            wpd_tmpdir_release_signals();
+            return -1;
         }
         if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
             close(fd);
-            pthread_sigmask(SIG_SETMASK, &old, NULL);
+            wpd_tmpdir_release_signals();
             return wpd_fail(err, WPD_E_IO, "%s: being written by another wpd run (lock %s)",
                             path, lock);
         }
@@ -98,7 +85,7 @@ int wpd_output_lock(const char *path, wpd_error *err)
     }
     if (fd >= 0)
         wpd_tmpdir_track_file(lock); /* a signal must not leave it behind either */
-    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    wpd_tmpdir_release_signals();
     if (fd < 0)
         return wpd_fail(err, WPD_E_IO, "%s: lock file %s keeps being replaced", path, lock);
     return fd;
@@ -120,19 +107,24 @@ int wpd_outfile_open(wpd_outfile *f, const char *path, int overwrite, wpd_error 
     wpd_outfile_sweep_stale(path);
     memset(f, 0, sizeof *f);
     f->fd = -1;
-    if (strlen(path) >= sizeof f->final_path || make_temp_name(f, path))
+    if (strlen(path) >= sizeof f->final_path || make_temp_name(f, path)) {
+        f->temp_path[0] = '\0'; /* abort must not unlink a cut name */
         return wpd_fail(err, WPD_E_USAGE, "%s: output path too long", path);
+    }
     strcpy(f->final_path, path);
     struct stat st;
-    if (!overwrite && stat(path, &st) == 0)
+    if (!overwrite && stat(path, &st) == 0) {
+        f->temp_path[0] = '\0';
         return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)", path);
-    sigset_t old;
-    block_cleanup_signals(&old);
+    }
+    /* Held from creating the file to registering it: a signal between
+     * the two would leave it behind. */
+    wpd_tmpdir_hold_signals();
     f->fd = mkostemp(f->temp_path, O_CLOEXEC);
+    int saved = errno;
     if (f->fd >= 0)
         wpd_tmpdir_track_file(f->temp_path); /* removed if a signal stops the run */
-    int saved = errno;
-    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    wpd_tmpdir_release_signals();
     if (f->fd < 0) {
         f->temp_path[0] = '\0';
         errno = saved;
@@ -213,6 +205,45 @@ void wpd_outfile_abort(wpd_outfile *f)
         wpd_tmpdir_untrack_file(f->temp_path);
     }
     f->temp_path[0] = '\0';
+}
+
+void wpd_outfile_clear_all(wpd_outfile *files, int n)
+{
+    for (int i = 0; i < n; i++) {
+        files[i].fd = -1;
+        files[i].temp_path[0] = '\0';
+    }
+}
+
+int wpd_outfile_rename_all(wpd_outfile *files, int n, wpd_error *err)
+{
+    wpd_tmpdir_hold_signals();
+    int rc = 0;
+    for (int i = 0; i < n && rc == 0; i++)
+        if (files[i].temp_path[0])
+            rc = wpd_outfile_rename(&files[i], err);
+    wpd_outfile_abort_all(files, n); /* no-op for the renamed ones */
+    wpd_tmpdir_release_signals();
+    return rc;
+}
+
+void wpd_outfile_abort_all(wpd_outfile *files, int n)
+{
+    for (int i = 0; i < n; i++)
+        wpd_outfile_abort(&files[i]);
+}
+
+int wpd_stdout_flush(wpd_error *err)
+{
+    errno = 0;
+    int flushed = fflush(stdout) == 0;
+    if (flushed && !ferror(stdout))
+        return 0;
+    /* A write that failed earlier, while printing, left the error flag but
+     * not its errno: then all that is known is that output was lost. */
+    if (flushed || errno == 0)
+        errno = EIO;
+    return wpd_fail_errno(err, "standard output");
 }
 
 int wpd_path_is_one_of(const char *path, char *const *paths, int n)

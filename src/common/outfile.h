@@ -56,4 +56,26 @@ int wpd_outfile_rename(wpd_outfile *f, wpd_error *err);
 /* Closes and removes the temporary file. Safe to call twice. */
 void wpd_outfile_abort(wpd_outfile *f);
 
+/* Marks files[0..n-1] as holding nothing (abort and rename_all skip them),
+ * before they are filled by wpd_writer_close_pending and the like. */
+void wpd_outfile_clear_all(wpd_outfile *files, int n);
+
+/* Renames the finished files[0..n-1] (wpd_outfile_finish done; cleared
+ * ones are skipped) into place, in order, with SIGINT, SIGTERM and SIGHUP
+ * held back until the last is renamed (wpd_tmpdir_hold_signals): a signal
+ * cannot leave some in place and the others removed (it takes effect
+ * after, the outputs complete).
+ * On a failure the files not yet renamed are removed; those renamed stay
+ * (renames in a directory that is still there do not fail). Returns 0 or
+ * -1 with err naming the file. */
+int wpd_outfile_rename_all(wpd_outfile *files, int n, wpd_error *err);
+
+/* Removes every temporary file of files[0..n-1] not renamed yet. */
+void wpd_outfile_abort_all(wpd_outfile *files, int n);
+
+/* Flushes standard output. Returns 0, or -1 with err set (WPD_E_IO,
+ * "standard output: <why>") when anything written to it was lost: a full
+ * disk, an I/O error. */
+int wpd_stdout_flush(wpd_error *err);
+
 #endif

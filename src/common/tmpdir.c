@@ -45,6 +45,12 @@ static struct {
 static pthread_mutex_t registry_mu = PTHREAD_MUTEX_INITIALIZER;
 static int hooks_installed;
 
+/* wpd_tmpdir_hold_signals: while holds are taken, the handler only notes
+ * the signal. Part of the same process-wide state (the handler reaches
+ * it). */
+static int holds;
+static int held_signal;
+
 static const int cleanup_signals[] = {SIGINT, SIGTERM, SIGHUP};
 
 /* Unlinks every entry of the directory path, then removes it. Only
@@ -136,6 +142,15 @@ static void remove_live_dirs(void)
 static void on_signal(int sig)
 {
     int saved = errno;
+    /* Noted before the holds are read, and the last release drops its
+     * hold before it reads the note (both sequentially consistent): a
+     * signal taken while the hold ends is acted on by one side or both,
+     * never by neither. */
+    __atomic_store_n(&held_signal, sig, __ATOMIC_SEQ_CST);
+    if (__atomic_load_n(&holds, __ATOMIC_SEQ_CST)) {
+        errno = saved;
+        return;
+    }
     remove_live_dirs();
     struct sigaction dfl;
     memset(&dfl, 0, sizeof dfl);
@@ -167,6 +182,9 @@ static void install_hooks_locked(void)
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
+    /* A held signal returns from the handler: the calls it interrupted
+     * then go on rather than fail with EINTR. */
+    sa.sa_flags = SA_RESTART;
     sigemptyset(&sa.sa_mask);
     for (size_t k = 0; k < sizeof cleanup_signals / sizeof *cleanup_signals; k++)
         sigaddset(&sa.sa_mask, cleanup_signals[k]);
@@ -215,19 +233,14 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
     if (slot < 0)
         return wpd_fail(err, WPD_E_IO, "%s: more than %d temporary directories at once", base,
                         MAX_DIRS);
-    /* Block the cleanup signals on this thread so that the directory cannot
-     * come into existence unregistered because of a signal taken here. */
-    sigset_t block, old;
-    sigemptyset(&block);
-    for (size_t k = 0; k < sizeof cleanup_signals / sizeof *cleanup_signals; k++)
-        sigaddset(&block, cleanup_signals[k]);
-    pthread_sigmask(SIG_BLOCK, &block, &old);
+    /* Signals held so that the directory cannot come into existence
+     * unregistered because of a signal taken here. */
+    wpd_tmpdir_hold_signals();
     int ok = mkdtemp(path) != NULL;
     int saved = errno;
-    if (ok) {
+    if (ok)
         publish_slot(slot, path, (size_t)len, KIND_DIR);
-    }
-    pthread_sigmask(SIG_SETMASK, &old, NULL);
+    wpd_tmpdir_release_signals();
     if (!ok) {
         __atomic_store_n(&registry[slot].state, SLOT_FREE, __ATOMIC_RELEASE);
         errno = saved;
@@ -235,6 +248,24 @@ int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t ou
     }
     memcpy(out, path, (size_t)len + 1);
     return 0;
+}
+
+void wpd_tmpdir_hold_signals(void)
+{
+    /* The handlers must be in place: without them a signal kills at once. */
+    pthread_mutex_lock(&registry_mu);
+    install_hooks_locked();
+    pthread_mutex_unlock(&registry_mu);
+    __atomic_add_fetch(&holds, 1, __ATOMIC_SEQ_CST);
+}
+
+void wpd_tmpdir_release_signals(void)
+{
+    if (__atomic_sub_fetch(&holds, 1, __ATOMIC_SEQ_CST))
+        return;
+    int sig = __atomic_load_n(&held_signal, __ATOMIC_SEQ_CST);
+    if (sig)
+        on_signal(sig);
 }
 
 void wpd_tmpdir_remove(const char *path)

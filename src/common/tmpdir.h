@@ -45,6 +45,17 @@ int wpd_tmpdir_track_outputs(const char *dir);
 /* Stops tracking dir's temporary outputs (they were renamed or removed). */
 void wpd_tmpdir_untrack_outputs(const char *dir);
 
+/* Holds back what SIGINT, SIGTERM and SIGHUP do, whichever thread takes
+ * them (blocking them on one thread would only send them to another, an
+ * OpenMP worker), until wpd_tmpdir_release_signals: the last release
+ * then removes everything registered and dies of the signal taken
+ * meanwhile, if any. For a few steps that must not be cut in the middle:
+ * creating a temporary file and registering it, renaming a set of outputs
+ * that appear together. Holds may overlap (nested, or on several
+ * threads): the signal takes effect at the last release. */
+void wpd_tmpdir_hold_signals(void);
+void wpd_tmpdir_release_signals(void);
+
 /* Removes the entries of dir named "<prefix><pid>-XXXXXX" (XXXXXX: the 6
  * letters and digits mkstemp and mkdtemp add) whose pid is no longer a
  * running process: what a run killed outright (SIGKILL, power loss) left.

@@ -108,6 +108,7 @@ void spill_stop_workers(wpd_spill *s);
 /* store_files.c */
 void spill_tile_path(const wpd_spill *s, int t, char *out, size_t len);
 int spill_tile_fd_locked(wpd_spill *s, int t, int *slot_out);
+void spill_close_tile_fd_locked(wpd_spill *s, int fd, int t);
 void spill_close_files(wpd_spill *s);
 
 #endif

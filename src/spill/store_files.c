@@ -19,6 +19,20 @@ void spill_tile_path(const wpd_spill *s, int t, char *out, size_t len)
     snprintf(out, len, "%s/tile-%06d", s->dir, t);
 }
 
+/* Closes fd, a descriptor tile t was written through. Storage that reports
+ * a lost write only at close (NFS, quotas) fails the spill: the tile's
+ * file would be read back short or damaged. Lock held. */
+void spill_close_tile_fd_locked(wpd_spill *s, int fd, int t)
+{
+    if (close(fd) == 0)
+        return;
+    wpd_error e;
+    char path[1100];
+    spill_tile_path(s, t, path, sizeof path);
+    wpd_fail_errno(&e, "%s: cannot close spill file", path);
+    spill_set_failed_locked(s, &e);
+}
+
 /* An open descriptor for writing tile t, pinned (not closed by another
  * thread until unpinned): cached, or opened in the least recently used
  * unpinned slot (at most MAX_OPEN_FILES stay open). *slot is -1 for a
@@ -45,7 +59,7 @@ int spill_tile_fd_locked(wpd_spill *s, int t, int *slot_out)
             slot = k;
     }
     if (slot >= 0 && s->open_files[slot].fd >= 0) {
-        close(s->open_files[slot].fd);
+        spill_close_tile_fd_locked(s, s->open_files[slot].fd, s->open_files[slot].tile);
         s->tiles[s->open_files[slot].tile].fd_slot = -1;
         s->open_files[slot].fd = -1;
     }
@@ -63,14 +77,17 @@ int spill_tile_fd_locked(wpd_spill *s, int t, int *slot_out)
     return fd;
 }
 
-/* Closes every cached descriptor (writing is over). */
+/* Closes every cached descriptor (writing is over); a failure fails the
+ * spill. */
 void spill_close_files(wpd_spill *s)
 {
+    pthread_mutex_lock(&s->mu);
     for (int k = 0; k < MAX_OPEN_FILES; k++)
         if (s->open_files[k].fd >= 0) {
-            close(s->open_files[k].fd);
+            spill_close_tile_fd_locked(s, s->open_files[k].fd, s->open_files[k].tile);
             s->tiles[s->open_files[k].tile].fd_slot = -1;
             s->open_files[k].fd = -1;
         }
+    pthread_mutex_unlock(&s->mu);
 }
 

@@ -90,7 +90,7 @@ static void write_chunk(wpd_spill *s, const job *j, const uint8_t *data, const c
     if (slot >= 0)
         s->open_files[slot].pins--;
     else if (fd >= 0)
-        close(fd);
+        spill_close_tile_fd_locked(s, fd, j->tile);
     if (failed) {
         wpd_error e;
         char path[1100];

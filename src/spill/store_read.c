@@ -148,8 +148,10 @@ int wpd_spill_read(const wpd_spill *s, int t, int with_records, wpd_tile_data *o
             rc = read_chunk(s, t, k, fd, path, with_records, &r, out, pos, err);
             pos += T->chunks[k].n;
         }
-        if (fd >= 0)
-            close(fd);
+        /* Read-only: nothing can be lost at close, but a failure means
+         * the storage is in trouble; say so rather than go on. */
+        if (fd >= 0 && close(fd) != 0 && rc == 0)
+            rc = wpd_fail_errno(err, "%s: cannot close spill file", path);
     }
     read_scratch_free(&r);
     if (rc)

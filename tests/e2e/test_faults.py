@@ -135,6 +135,24 @@ def synth_tiles(n, k):
     return _cache[key]
 
 
+def check_one_line(p, what, code, command, names=None, says=()):
+    """p (a finished run of `wpd command`) exited with code and printed one
+    line on stderr, "wpd COMMAND: " then `names` (if given), holding every
+    string of says. Returns the line."""
+    assert p.returncode == code, "%s: exit %d, want %d: %s" % (what, p.returncode, code,
+                                                               p.stderr.strip())
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, "%s: want one line, got %r" % (what, p.stderr)
+    msg, prefix = lines[0], "wpd %s: " % command
+    assert msg.startswith(prefix), (what, msg)
+    if names:
+        assert msg[len(prefix):].startswith(names), (
+            "%s: message does not start with %s: %s" % (what, names, msg))
+    for s in says:
+        assert s in msg, "%s: message lacks %r: %s" % (what, s, msg)
+    return msg
+
+
 class Case:
     """One faulted run: inputs hashed first, then checked after."""
 
@@ -172,18 +190,7 @@ class Case:
 
     def check_failed(self, what, code, names=None, says=()):
         """Exit code, one message line naming `names` first, then clean."""
-        p = self.p
-        assert p.returncode == code, "%s: exit %d, want %d: %s" % (what, p.returncode, code,
-                                                                   p.stderr.strip())
-        lines = p.stderr.strip().splitlines()
-        assert len(lines) == 1, "%s: want one line, got %r" % (what, p.stderr)
-        msg = lines[0]
-        assert msg.startswith("wpd resample: "), (what, msg)
-        if names:
-            assert msg[len("wpd resample: "):].startswith(names), (
-                "%s: message does not start with %s: %s" % (what, names, msg))
-        for s in says:
-            assert s in msg, "%s: message lacks %r: %s" % (what, s, msg)
+        msg = check_one_line(self.p, what, code, "resample", names, says)
         self.check_clean(what)
         return msg
 

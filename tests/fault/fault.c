@@ -20,9 +20,15 @@
  *   WPD_FAULT_SYNC_DIR=DIR
  *       fsync and fdatasync of files under DIR fail with EIO: the data
  *       written did not reach the disk.
- *   WPD_FAULT_CLOSE_DIR=DIR
- *       close of files under DIR reports ENOSPC (after really closing):
- *       storage that reports a full disk only at the end (NFS, quotas).
+ *   WPD_FAULT_CLOSE_DIR=DIR  [WPD_FAULT_CLOSE_AFTER=N]
+ *       close of regular files under DIR reports ENOSPC (after really
+ *       closing): storage that reports a full disk only at the end (NFS,
+ *       quotas). With N, the first N such closes succeed (counted over
+ *       every thread), the later ones fail. WPD_FAULT_CLOSE_COUNT=FILE
+ *       writes at exit how many such closes there were (without
+ *       WPD_FAULT_CLOSE_DIR nothing is counted): faults can then be placed
+ *       at fractions of a run's closes (spill files opened and closed over
+ *       and over).
  *   WPD_FAULT_MALLOC_FAIL=N  [WPD_FAULT_MALLOC_ALWAYS=1]
  *       the N-th allocation call (malloc, calloc, realloc, posix_memalign,
  *       aligned_alloc, memalign, valloc; counted from this library's
@@ -79,6 +85,9 @@ static char sync_dir[4096];
 static size_t sync_dir_len;
 static char close_dir[4096];
 static size_t close_dir_len;
+static unsigned long long close_after;   /* closes that still succeed */
+static unsigned long long close_done;    /* closes under close_dir so far */
+static char close_count_file[4096];
 
 static int malloc_on;                /* counting has started */
 static unsigned long long malloc_fail;   /* 1-based call to fail, 0: none */
@@ -118,6 +127,9 @@ __attribute__((constructor)) static void fault_init(void)
     const char *rc = getenv("WPD_FAULT_READ_COUNT");
     if (rc)
         snprintf(read_count_file, sizeof read_count_file, "%s", rc);
+    const char *cc = getenv("WPD_FAULT_CLOSE_COUNT");
+    if (cc)
+        snprintf(close_count_file, sizeof close_count_file, "%s", cc);
     __atomic_store_n(&malloc_on, 1, __ATOMIC_RELEASE);
 
     const char *rf = getenv("WPD_FAULT_READ_FILE");
@@ -133,6 +145,7 @@ __attribute__((constructor)) static void fault_init(void)
     write_after = env_u64("WPD_FAULT_WRITE_AFTER", 0);
     sync_dir_len = canonical_dir("WPD_FAULT_SYNC_DIR", sync_dir, sizeof sync_dir);
     close_dir_len = canonical_dir("WPD_FAULT_CLOSE_DIR", close_dir, sizeof close_dir);
+    close_after = env_u64("WPD_FAULT_CLOSE_AFTER", 0);
 }
 
 /* Writes value as a decimal line to path (at exit: raw system calls). */
@@ -154,6 +167,8 @@ __attribute__((destructor)) static void fault_fini(void)
         write_count(malloc_count_file, __atomic_load_n(&malloc_calls, __ATOMIC_RELAXED));
     if (read_count_file[0])
         write_count(read_count_file, __atomic_load_n(&read_done, __ATOMIC_RELAXED));
+    if (close_count_file[0])
+        write_count(close_count_file, __atomic_load_n(&close_done, __ATOMIC_RELAXED));
 }
 
 /* ------------------------------------------------------------ reads */
@@ -338,9 +353,20 @@ int fdatasync(int fd)
     return (int)syscall(SYS_fdatasync, fd);
 }
 
+/* 1 if this close of fd must report a failure: a regular file under
+ * close_dir (directories opened to be listed or removed are not the
+ * storage's data) past the first close_after. */
+static int close_fails(int fd)
+{
+    struct stat st;
+    if (!under(fd, close_dir, close_dir_len) || fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+        return 0;
+    return __atomic_add_fetch(&close_done, 1, __ATOMIC_RELAXED) > close_after;
+}
+
 int close(int fd)
 {
-    int fail = under(fd, close_dir, close_dir_len);
+    int fail = close_fails(fd);
     int rc = (int)syscall(SYS_close, fd);
     if (fail && rc == 0)
         return errno = ENOSPC, -1;
