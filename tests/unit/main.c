@@ -1,5 +1,7 @@
 /* main.c - runs every registered unit test; prints "N passed, N failed". */
+#ifndef _GNU_SOURCE
 #define _GNU_SOURCE
+#endif
 #include "harness.h"
 
 #include <ftw.h>
