@@ -376,3 +376,69 @@ TEST(ply_strict_ascii_lines)
     CHECK_MSG(pf_fails_with(path, "PLY line 9: element 'face' item 0 has fewer values", msg,
                             sizeof msg), "got '%s'", msg);
 }
+
+/* Headers refused since before the leniency work (moved from test_ply.c). */
+TEST(ply_header_errors)
+{
+    static const struct { const char *text, *want; } cases[] = {
+        {"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\n"
+         "property float y\nproperty float z\nend_header\n0123456789ab",
+         "1000000000000"},
+        {"ply\nformat binary_little_endian 1.0\nelement face 18446744073709551615\n"
+         "property list uchar int idx\nelement vertex 1\nproperty float x\nproperty float y\n"
+         "end_header\n01234567",
+         "element 'face' count 18446744073709551615"},
+        {"ply\nformat ascii 1.0\nelement vertex 100\nproperty float x\nproperty float y\n"
+         "end_header\n1 2\n", "element 'vertex' count 100"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n1 2\n",
+         "a number where a keyword belongs (no end_header line?) '1'"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n",
+         "no end_header"},
+        {"ply\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
+         "no format line"},
+        {"ply\nformat ascii 1.0\nelement face 0\nend_header\n", "no 'vertex' element"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float z\n"
+         "end_header\n1 2\n", "no 'y' property"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty flaot x\nend_header\n",
+         "unknown property type 'flaot'"},
+        {"ply\nformat ascii 2.0\nend_header\n", "unsupported PLY version"},
+        {"ply\nformat binary_middle_endian 1.0\nend_header\n", "unknown format"},
+        {"ply\nformat ascii 1.0\nproperty float x\nend_header\n", "property before any element"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+         "property float x\nend_header\n1 2 3\n", "'x' appears twice"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty list uchar float y\n"
+         "end_header\n1 1 2\n", "'y' is a list"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty list float uchar idx\n"
+         "property float x\nproperty float y\nend_header\n", "not an integer type"},
+        {"ply\nformat ascii 1.0\nelement vertex -5\nend_header\n", "bad element count"},
+        {"plyx\nformat ascii 1.0\nend_header\n", "no 'ply' magic line"},
+        {"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty uchar y\n"
+         "end_header\n1 2\n1 256\n", "vertex 1 property 'y': value '256' out of range for uchar"},
+        {"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty char y\n"
+         "end_header\n1 2\n1 -129\n", "out of range for char"},
+        {"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty uint y\n"
+         "end_header\n1 2\n1 -1\n", "out of range for uint"},
+        {"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+         "end_header\n1 2\n1 2x\n", "vertex 1 property 'y': '2x' is not a valid float"},
+        {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty int y\n"
+         "end_header\n1 2.5\n", "'2.5' is not a valid int"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char path[512], msg[WPD_ERRMSG_MAX];
+        snprintf(path, sizeof path, "%s/hdr_err_%zu.ply", test_tmp_dir(), i);
+        pf_write_bytes(path, cases[i].text, strlen(cases[i].text));
+        CHECK_MSG(pf_fails_with(path, cases[i].want, msg, sizeof msg), "case %zu: got '%s'", i, msg);
+    }
+    /* A header longer than the limit. */
+    size_t big = (1u << 20) + 100;
+    char *text = malloc(big);
+    memset(text, ' ', big);
+    memcpy(text, "ply\nformat ascii 1.0\n", 21);
+    for (size_t i = 100; i < big; i += 100)
+        memcpy(text + i - 9, "\ncomment ", 9);
+    char path[512], msg[WPD_ERRMSG_MAX];
+    pf_tmp_path(path, sizeof path, "hdr_huge.ply");
+    pf_write_bytes(path, text, big);
+    free(text);
+    CHECK_MSG(pf_fails_with(path, "no end_header line within", msg, sizeof msg), "got '%s'", msg);
+}
