@@ -530,8 +530,11 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
         time.sleep(delay)
         p.send_signal(sig)
         _, err = p.communicate(timeout=60)
-        if p.returncode == 0:  # finished first: then it must be complete
+        # finished first, or the signal came after the rename, on the way
+        # out (slow under ASan, whose leak check runs at exit): complete
+        if p.returncode == 0 or (p.returncode == -sig and os.path.exists("out.las")):
             assert point_count("out.las") == 20_000, what
+            assert leftovers(".", "spill") == [], what
             os.remove("out.las")
             continue
         assert p.returncode == -sig, "%s: exit %d: %s" % (what, p.returncode, err)
@@ -556,7 +559,7 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
         p.send_signal(sig)
         _, err = p.communicate(timeout=60)
         what = "--per-input, %s after %.3f s" % (sig.name, delay)
-        if p.returncode == 0:
+        if p.returncode == 0 or (p.returncode == -sig and os.listdir("out")):
             assert sum(point_count(o) for o in c.outputs()) == 20_000, what
         else:
             assert p.returncode == -sig, "%s: exit %d: %s" % (what, p.returncode, err)
