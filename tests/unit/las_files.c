@@ -13,54 +13,14 @@ int lt_starts_with(const char *s, const char *prefix)
     return !strncmp(s, prefix, strlen(prefix));
 }
 
-void lt_free_points(lt_points *p)
-{
-    free(p->records);
-    free(p->xyz);
-    memset(p, 0, sizeof *p);
-}
-
-int lt_read_all(wpd_reader *r, lt_points *p, size_t batch_cap, wpd_error *err)
-{
-    const wpd_header *h = wpd_reader_header(r);
-    memset(p, 0, sizeof *p);
-    p->record_size = h->schema.record_size;
-    p->records = malloc(h->point_count * p->record_size + 1);
-    p->xyz = malloc(h->point_count * 3 * sizeof(double) + 1);
-    wpd_batch b;
-    if (!p->records || !p->xyz || wpd_batch_init(&b, batch_cap, p->record_size))
-        return -1;
-    long got;
-    while ((got = wpd_reader_read(r, &b, err)) > 0) {
-        if (p->n + (uint64_t)got > h->point_count) {
-            wpd_batch_free(&b);
-            return -1; /* more points than announced */
-        }
-        memcpy(p->records + p->n * p->record_size, b.records, (size_t)got * p->record_size);
-        memcpy(p->xyz + 3 * p->n, b.xyz, (size_t)got * 3 * sizeof(double));
-        p->n += (uint64_t)got;
-    }
-    wpd_batch_free(&b);
-    return got < 0 ? -1 : 0;
-}
-
-int lt_write_file(const char *path, const void *data, size_t len)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return -1;
-    size_t w = fwrite(data, 1, len, f);
-    return fclose(f) == 0 && w == len ? 0 : -1;
-}
-
 wpd_error lt_open_and_read(const char *path)
 {
     wpd_error err = {0};
     wpd_reader *r = wpd_reader_open(path, &err);
     if (r) {
-        lt_points p;
-        lt_read_all(r, &p, 4096, &err);
-        lt_free_points(&p);
+        cf_cloud p;
+        cf_read_all(r, &p, 4096, &err);
+        cf_cloud_free(&p);
         wpd_reader_close(r);
     }
     return err;
@@ -106,18 +66,12 @@ size_t lt_build_las(uint8_t *buf, const lt_synth *s)
     return off + (size_t)s->npoints * s->record_length;
 }
 
-char *lt_tmp_path(char *buf, size_t len, const char *name)
-{
-    snprintf(buf, len, "%s/%s", test_tmp_dir(), name);
-    return buf;
-}
-
 void lt_expect_failure(int *failures_, const char *name, const uint8_t *bytes, size_t len,
                        const char *expect)
 {
     char path[1024];
-    lt_tmp_path(path, sizeof path, name);
-    if (lt_write_file(path, bytes, len)) {
+    cf_tmp_path(path, sizeof path, name);
+    if (cf_write_file(path, bytes, len)) {
         CHECK_MSG(0, "cannot write %s", path);
         return;
     }
@@ -127,7 +81,7 @@ void lt_expect_failure(int *failures_, const char *name, const uint8_t *bytes, s
               "%s: \"%s\" (want \"%s\")", name, err.msg, expect);
 }
 
-int lt_write_points(const char *out, const wpd_header *h, const lt_points *p,
+int lt_write_points(const char *out, const wpd_header *h, const cf_cloud *p,
                     size_t batch_cap, wpd_error *err)
 {
     wpd_write_options opt = {.overwrite = 1};

@@ -10,32 +10,14 @@
 #include "common/error.h"
 #include "io/reader.h"
 
+#include "cloud_files.h"
+
 /* 1 if s starts with prefix. */
 int lt_starts_with(const char *s, const char *prefix);
 
-/* Writes len bytes to path. Returns 0 or -1. */
-int lt_write_file(const char *path, const void *data, size_t len);
-
-/* path = <test temp dir>/name; returns buf. */
-char *lt_tmp_path(char *buf, size_t len, const char *name);
-
-/* All records of a file and their decoded x, y, z. */
-typedef struct lt_points {
-    uint64_t n;
-    uint32_t record_size;
-    uint8_t *records;
-    double *xyz;
-} lt_points;
-
-/* Reads every point of r into p in batches of batch_cap (small ones
- * exercise the batch edges). Returns 0, or -1 with err set (or more points
- * than the header announced). */
-int lt_read_all(wpd_reader *r, lt_points *p, size_t batch_cap, wpd_error *err);
-void lt_free_points(lt_points *p);
-
 /* Writes p with header h to out (overwriting it) in batches of batch_cap.
  * Returns 0 or -1 with err set. */
-int lt_write_points(const char *out, const wpd_header *h, const lt_points *p,
+int lt_write_points(const char *out, const wpd_header *h, const cf_cloud *p,
                     size_t batch_cap, wpd_error *err);
 
 /* Opens path and reads everything; returns the first error (or code OK). */

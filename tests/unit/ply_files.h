@@ -10,32 +10,13 @@
 #include "common/error.h"
 #include "io/reader.h"
 
-/* out = <test temp dir>/name. */
-void pf_tmp_path(char *out, size_t size, const char *name);
-
-/* Writes len bytes to path. Returns 0 or -1. */
-int pf_write_bytes(const char *path, const void *data, size_t len);
-
-/* All points of a file: concatenated records and coordinates. */
-typedef struct pf_cloud {
-    size_t n;
-    uint32_t record_size;
-    uint8_t *records;
-    double *xyz;
-    uint64_t dropped;
-} pf_cloud;
-
-void pf_cloud_free(pf_cloud *c);
-
-/* Reads every point of an open reader in batches of batch_cap. Returns 0,
- * or -1 with err set. */
-int pf_read_all_from(wpd_reader *r, pf_cloud *c, size_t batch_cap, wpd_error *err);
+#include "cloud_files.h"
 
 /* Opens path and reads every point. Returns 0, or -1 with err set. */
-int pf_read_all(const char *path, pf_cloud *c, wpd_error *err);
+int pf_read_all(const char *path, cf_cloud *c, wpd_error *err);
 
 /* 1 if a and b hold the same records and coordinates. */
-int pf_clouds_equal(const pf_cloud *a, const pf_cloud *b);
+int pf_clouds_equal(const cf_cloud *a, const cf_cloud *b);
 
 /* 1 if opening (or, if it opens, reading) path fails with a message that
  * starts with the path and contains want; the message is copied to msg. */

@@ -130,13 +130,13 @@ static void check_manifest_file(const char *dir, const manifest_row *row, void *
     } else {
         CHECK_MSG(0, "%s: no bbox in the manifest notes", path);
     }
-    lt_points p;
-    int rc = lt_read_all(r, &p, 1000, &err);
+    cf_cloud p;
+    int rc = cf_read_all(r, &p, 1000, &err);
     CHECK_MSG(rc == 0, "%s: %s", path, err.msg);
     CHECK_MSG(p.n == h->point_count, "%s: read %llu of %llu", path, (unsigned long long)p.n,
               (unsigned long long)h->point_count);
     CHECK(wpd_reader_dropped(r) == 0);
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
 }
 
@@ -280,9 +280,9 @@ static void check_round_trip(const char *dir, const manifest_row *row, void *vct
     CHECK_MSG(a != NULL, "%s: %s", path, err.msg);
     if (!a)
         return;
-    lt_points pa = {0}, pb = {0};
+    cf_cloud pa = {0}, pb = {0};
     const wpd_header *ha = wpd_reader_header(a);
-    int ok = lt_read_all(a, &pa, 777, &err) == 0;
+    int ok = cf_read_all(a, &pa, 777, &err) == 0;
     CHECK_MSG(ok, "%s: %s", path, err.msg);
     ok = ok && lt_write_points(out, ha, &pa, 500, &err) == 0;
     CHECK_MSG(ok, "%s: %s", out, err.msg);
@@ -291,7 +291,7 @@ static void check_round_trip(const char *dir, const manifest_row *row, void *vct
     if (b) {
         ctx->files++;
         const wpd_header *hb = wpd_reader_header(b);
-        CHECK_MSG(lt_read_all(b, &pb, 1 << 16, &err) == 0, "%s: %s", out, err.msg);
+        CHECK_MSG(cf_read_all(b, &pb, 1 << 16, &err) == 0, "%s: %s", out, err.msg);
         CHECK_MSG(hb->point_count == ha->point_count && pb.n == pa.n, "%s", path);
         CHECK_MSG(pb.n == pa.n && !memcmp(pa.records, pb.records, pa.n * pa.record_size),
                   "%s: point records differ", path);
@@ -319,10 +319,10 @@ static void check_round_trip(const char *dir, const manifest_row *row, void *vct
             CHECK_MSG(hb->las.min[k] == lo && hb->las.max[k] == hi, "%s: bounds axis %d", path,
                       k);
         }
-        lt_free_points(&pb);
+        cf_cloud_free(&pb);
         wpd_reader_close(b);
     }
-    lt_free_points(&pa);
+    cf_cloud_free(&pa);
     wpd_reader_close(a);
     unlink(out);
 }
@@ -449,10 +449,10 @@ TEST(las_seek)
     if (!r)
         return;
     const wpd_header *h = wpd_reader_header(r);
-    lt_points p;
+    cf_cloud p;
     wpd_error err;
     CHECK(wpd_reader_can_seek(r));
-    CHECK(lt_read_all(r, &p, 100, &err) == 0 && p.n == 1065);
+    CHECK(cf_read_all(r, &p, 100, &err) == 0 && p.n == 1065);
     wpd_batch b;
     if (wpd_batch_init(&b, 10, h->schema.record_size) == 0) {
         CHECK(wpd_reader_seek(r, 500, &err) == 0);
@@ -468,7 +468,7 @@ TEST(las_seek)
         CHECK(!memcmp(b.records, p.records, 10 * 34));
         wpd_batch_free(&b);
     }
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
 }
 
@@ -481,8 +481,8 @@ TEST(las_synthetic_valid_file)
     lt_synth s = {2, 3, 34, 10, 1};
     size_t len = lt_build_las(buf, &s);
     char path[1024];
-    lt_tmp_path(path, sizeof path, "valid.las");
-    CHECK(lt_write_file(path, buf, len) == 0);
+    cf_tmp_path(path, sizeof path, "valid.las");
+    CHECK(cf_write_file(path, buf, len) == 0);
     wpd_error err = {0};
     wpd_reader *r = wpd_reader_open(path, &err);
     CHECK_MSG(r, "%s", err.msg);
@@ -491,10 +491,10 @@ TEST(las_synthetic_valid_file)
     const wpd_header *h = wpd_reader_header(r);
     CHECK(h->point_count == 10 && h->las.nvlr == 1 && h->las.vlrs[0].length == 10 &&
           !strcmp(h->las.vlrs[0].user_id, "test") && !memcmp(h->las.vlrs[0].data, "0123", 4));
-    lt_points p;
-    CHECK(lt_read_all(r, &p, 3, &err) == 0 && p.n == 10);
+    cf_cloud p;
+    CHECK(cf_read_all(r, &p, 3, &err) == 0 && p.n == 10);
     CHECK(p.xyz[27] == 1009.0 && p.xyz[28] == 1995.5 && p.xyz[29] == 0.07);
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
 }
 
@@ -572,8 +572,8 @@ TEST(las_synthetic_counts_14)
     size_t len = lt_build_las(buf, &s);
     memcpy(buf + 107, (uint32_t[]){5}, 4); /* legacy disagrees: 64-bit wins */
     char path[1024];
-    lt_tmp_path(path, sizeof path, "counts14.las");
-    CHECK(lt_write_file(path, buf, len) == 0);
+    cf_tmp_path(path, sizeof path, "counts14.las");
+    CHECK(cf_write_file(path, buf, len) == 0);
     wpd_error err;
     wpd_reader *r = wpd_reader_open(path, &err);
     CHECK_MSG(r, "%s", err.msg);
@@ -583,7 +583,7 @@ TEST(las_synthetic_counts_14)
     }
     /* 64-bit count 0 next to a legacy count: the legacy one is used. */
     memcpy(buf + 247, (uint64_t[]){0}, 8);
-    CHECK(lt_write_file(path, buf, len) == 0);
+    CHECK(cf_write_file(path, buf, len) == 0);
     r = wpd_reader_open(path, &err);
     CHECK_MSG(r, "%s", err.msg);
     if (r) {
@@ -611,16 +611,16 @@ TEST(las_writer_header_fields)
     lt_synth s = {4, 6, 30, 9, 1};
     size_t len = lt_build_las(buf, &s);
     char in_path[1024], out_path[1024];
-    lt_tmp_path(in_path, sizeof in_path, "w_in.las");
-    lt_tmp_path(out_path, sizeof out_path, "w_out.las");
-    CHECK(lt_write_file(in_path, buf, len) == 0);
+    cf_tmp_path(in_path, sizeof in_path, "w_in.las");
+    cf_tmp_path(out_path, sizeof out_path, "w_out.las");
+    CHECK(cf_write_file(in_path, buf, len) == 0);
     wpd_error err;
     wpd_reader *r = wpd_reader_open(in_path, &err);
     CHECK_MSG(r, "%s", err.msg);
     if (!r)
         return;
-    lt_points p;
-    CHECK(lt_read_all(r, &p, 64, &err) == 0);
+    cf_cloud p;
+    CHECK(cf_read_all(r, &p, 64, &err) == 0);
     /* Shift the points: bounds and returns come from what is written. */
     p.xyz[0] = 990.0;
     uint8_t before[9 * 30];
@@ -642,7 +642,7 @@ TEST(las_writer_header_fields)
     CHECK(minx == 990.0);
     CHECK(!memcmp(out + 58, "wpd\0", 4));
     CHECK(!memcmp(out + 26, "synthetic", 9));
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
 }
 
@@ -653,17 +653,17 @@ TEST(las_writer_rejects_unrepresentable_coordinates)
     lt_synth s = {2, 0, 20, 3, 0};
     size_t len = lt_build_las(buf, &s);
     char in_path[1024], out_path[1024];
-    lt_tmp_path(in_path, sizeof in_path, "q_in.las");
-    lt_tmp_path(out_path, sizeof out_path, "q_out.las");
-    CHECK(lt_write_file(in_path, buf, len) == 0);
+    cf_tmp_path(in_path, sizeof in_path, "q_in.las");
+    cf_tmp_path(out_path, sizeof out_path, "q_out.las");
+    CHECK(cf_write_file(in_path, buf, len) == 0);
     wpd_error err;
     wpd_reader *r = wpd_reader_open(in_path, &err);
     if (!r) {
         CHECK_MSG(0, "%s", err.msg);
         return;
     }
-    lt_points p;
-    CHECK(lt_read_all(r, &p, 64, &err) == 0);
+    cf_cloud p;
+    CHECK(cf_read_all(r, &p, 64, &err) == 0);
     p.xyz[7] = 1e12; /* y of point 2 with scale 0.01 */
     CHECK(lt_write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
     CHECK_MSG(lt_starts_with(err.msg, out_path) && strstr(err.msg, "point 2: y"), "%s", err.msg);
@@ -671,7 +671,7 @@ TEST(las_writer_rejects_unrepresentable_coordinates)
     CHECK(stat(out_path, &st) != 0); /* no partial output */
     p.xyz[7] = NAN;
     CHECK(lt_write_points(out_path, wpd_reader_header(r), &p, 64, &err) == -1);
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
 }
 

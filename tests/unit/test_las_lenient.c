@@ -62,7 +62,7 @@ static void check_warnings(int *failures_, const char *name, const wpd_header *h
 }
 
 /* Checks that p holds the n points lt_build_las writes. */
-static void check_points(int *failures_, const char *name, const lt_points *p, uint32_t n)
+static void check_points(int *failures_, const char *name, const cf_cloud *p, uint32_t n)
 {
     CHECK_MSG(p->n == n, "%s: %llu points, want %u", name, (unsigned long long)p->n, n);
     for (uint32_t i = 0; i < n && i < p->n; i++) {
@@ -80,18 +80,18 @@ static wpd_reader *read_lenient(int *failures_, const char *name, const uint8_t 
                                 size_t len, uint32_t nwarnings, const char *expect, uint32_t n)
 {
     char path[1024];
-    lt_tmp_path(path, sizeof path, name);
-    CHECK(lt_write_file(path, bytes, len) == 0);
+    cf_tmp_path(path, sizeof path, name);
+    CHECK(cf_write_file(path, bytes, len) == 0);
     wpd_error err = {0};
     wpd_reader *r = wpd_reader_open(path, &err);
     CHECK_MSG(r, "%s: refused: %s", name, err.msg);
     if (!r)
         return NULL;
     check_warnings(failures_, name, wpd_reader_header(r), nwarnings, expect);
-    lt_points p;
-    CHECK_MSG(lt_read_all(r, &p, 3, &err) == 0, "%s: %s", name, err.msg);
+    cf_cloud p;
+    CHECK_MSG(cf_read_all(r, &p, 3, &err) == 0, "%s: %s", name, err.msg);
     check_points(failures_, name, &p, n);
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     CHECK(wpd_reader_seek(r, 0, &err) == 0);
     return r;
 }
@@ -111,15 +111,15 @@ static uint8_t buf[16384], mod[16384], out[16384];
 static size_t copy_las(int *failures_, const char *name, const char *copy_name)
 {
     char in[1024], copy[1024];
-    lt_tmp_path(in, sizeof in, name);
-    lt_tmp_path(copy, sizeof copy, copy_name);
+    cf_tmp_path(in, sizeof in, name);
+    cf_tmp_path(copy, sizeof copy, copy_name);
     wpd_error err = {0};
     wpd_reader *r = wpd_reader_open(in, &err);
-    lt_points p = {0};
-    int ok = r && lt_read_all(r, &p, 64, &err) == 0 &&
+    cf_cloud p = {0};
+    int ok = r && cf_read_all(r, &p, 64, &err) == 0 &&
              lt_write_points(copy, wpd_reader_header(r), &p, 7, &err) == 0;
     CHECK_MSG(ok, "%s -> %s: %s", name, copy_name, err.msg);
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
     FILE *f = ok ? fopen(copy, "rb") : NULL;
     size_t n = f ? fread(out, 1, sizeof out, f) : 0;
@@ -388,12 +388,12 @@ TEST(las_header_checked_against_points)
     if (!r)
         return;
     const wpd_header *h = wpd_reader_header(r);
-    lt_points p;
+    cf_cloud p;
     wpd_error err;
     uint64_t by_return[16] = {0};
     wpd_bounds b;
     wpd_bounds_reset(&b);
-    CHECK(lt_read_all(r, &p, 4, &err) == 0);
+    CHECK(cf_read_all(r, &p, 4, &err) == 0);
     wpd_las_tally_returns(h, p.records, p.n, by_return);
     wpd_bounds_add(&b, p.xyz, p.n);
     CHECK(by_return[1] == 2 && by_return[2] == 2 && by_return[3] == 2 && by_return[0] == 0);
@@ -413,7 +413,7 @@ TEST(las_header_checked_against_points)
     memset(&w, 0, sizeof w);
     wpd_las_check_header_against_points(&fixed, &b, by_return, &w);
     CHECK_MSG(w.n == 0, "%s", w.line[0]);
-    lt_free_points(&p);
+    cf_cloud_free(&p);
     wpd_reader_close(r);
 }
 

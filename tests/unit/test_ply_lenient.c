@@ -22,8 +22,8 @@ static const double want_xyz[3][3] = {{1, 2, 3}, {4.5, 5, 6}, {7, 8, 9.25}};
  * file's path. */
 static void write_case(char *path, size_t size, const char *name, const char *text, size_t len)
 {
-    pf_tmp_path(path, size, name);
-    pf_write_bytes(path, text, len ? len : strlen(text));
+    cf_tmp_path(path, size, name);
+    cf_write_file(path, text, len ? len : strlen(text));
 }
 
 /* Counts the warnings of path's header that start with the path and contain
@@ -91,14 +91,14 @@ static void check_lenient(const char *path, const char *want, size_t npts, int *
     const char *first = total ? wpd_reader_header(r)->warnings.line[0] : "(none)";
     CHECK_MSG(want ? hits == 1 && total == 1 : total == 0, "%s: want '%s', got %u: %s", path,
               want ? want : "no warning", total, first);
-    pf_cloud c;
-    CHECK_MSG(pf_read_all_from(r, &c, 2, &err) == 0, "%s", err.msg);
+    cf_cloud c;
+    CHECK_MSG(cf_read_all(r, &c, 2, &err) == 0, "%s", err.msg);
     CHECK_MSG(c.n == npts, "%s: %zu points", path, c.n);
     for (size_t i = 0; i < c.n && i < npts; i++)
         CHECK_MSG(!memcmp(c.xyz + 3 * i, want_xyz[i], sizeof want_xyz[i]),
                   "%s: point %zu is %g %g %g", path, i, c.xyz[3 * i], c.xyz[3 * i + 1],
                   c.xyz[3 * i + 2]);
-    pf_cloud_free(&c);
+    cf_cloud_free(&c);
     wpd_reader_close(r);
 }
 
@@ -426,7 +426,7 @@ TEST(ply_header_errors)
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char path[512], msg[WPD_ERRMSG_MAX];
         snprintf(path, sizeof path, "%s/hdr_err_%zu.ply", test_tmp_dir(), i);
-        pf_write_bytes(path, cases[i].text, strlen(cases[i].text));
+        cf_write_file(path, cases[i].text, strlen(cases[i].text));
         CHECK_MSG(pf_fails_with(path, cases[i].want, msg, sizeof msg), "case %zu: got '%s'", i, msg);
     }
     /* A header longer than the limit. */
@@ -437,8 +437,8 @@ TEST(ply_header_errors)
     for (size_t i = 100; i < big; i += 100)
         memcpy(text + i - 9, "\ncomment ", 9);
     char path[512], msg[WPD_ERRMSG_MAX];
-    pf_tmp_path(path, sizeof path, "hdr_huge.ply");
-    pf_write_bytes(path, text, big);
+    cf_tmp_path(path, sizeof path, "hdr_huge.ply");
+    cf_write_file(path, text, big);
     free(text);
     CHECK_MSG(pf_fails_with(path, "no end_header line within", msg, sizeof msg), "got '%s'", msg);
 }
