@@ -178,8 +178,9 @@ static int fill_lists(const wpd_run *run, int t, view *v, size_t ncand, size_t n
             v->cand[v->ncand++] = (uint32_t)i;
         } else if (v->cls[i] == FIXED) {
             /* The owner's label of its own sample is the true one. */
-            const wpd_tile_samples *s = &run->store[home_of(run, t, d, i)];
-            long k = s->edge ? find_next(s, &at[home_of(run, t, d, i)], d->gid[i]) : -1;
+            int home = home_of(run, t, d, i);
+            const wpd_tile_samples *s = &run->store[home];
+            long k = s->edge ? find_next(s, &at[home], d->gid[i]) : -1;
             memcpy(v->fixed + 3 * v->nfixed, d->xyz + 3 * i, 3 * sizeof *v->fixed);
             if (v->fixed_edge)
                 v->fixed_edge[v->nfixed] = k >= 0 ? s->edge[k] : 0;
@@ -289,8 +290,6 @@ static void foreign_free(foreign *f)
     memset(f, 0, sizeof *f);
 }
 
-/* The certain decisions of v about neighbours' UNKNOWN points, into *f
- * (kept[] and unknown[] of the pass ascending). Returns 0 or -1. */
 /* Walks v's candidates that are other tiles' UNKNOWN points and were
  * decided for certain here (kept[] and unknown[] ascending): counts them,
  * and with f's arrays allocated, stores them. */
