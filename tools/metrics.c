@@ -353,18 +353,22 @@ static int append_batch(double **xyz, size_t *n, size_t *cap, const wpd_batch *b
 
 int wpd_metrics_load(const char *path, double **xyz, size_t *n, wpd_error *err)
 {
-    return wpd_metrics_load_many(&path, 1, xyz, n, err);
+    return wpd_metrics_load_many(&path, 1, xyz, n, NULL, err);
 }
 
 int wpd_metrics_load_many(const char *const *paths, int npaths, double **xyz, size_t *n,
-                          wpd_error *err)
+                          wpd_warnings *warnings, wpd_error *err)
 {
     const char *path = paths[0];
     *xyz = NULL;
     *n = 0;
+    if (warnings)
+        memset(warnings, 0, (size_t)npaths * sizeof *warnings);
     wpd_cloud *cloud = wpd_cloud_open(paths, npaths, err);
     if (!cloud)
         return -1;
+    for (int i = 0; warnings && i < npaths; i++)
+        warnings[i] = wpd_cloud_header(cloud, i)->warnings;
     wpd_batch b;
     if (wpd_batch_init(&b, 65536, wpd_cloud_header(cloud, 0)->schema.record_size)) {
         wpd_cloud_close(cloud);
@@ -518,13 +522,22 @@ static void shift_to_origin(double *xyz, size_t n, const double o[3])
             xyz[3 * i + a] -= o[a];
 }
 
+/* wpd_metrics_load, printing the file's warnings (when it opens). */
+static int load(const char *path, double **xyz, size_t *n, wpd_error *err)
+{
+    wpd_warnings w;
+    int rc = wpd_metrics_load_many(&path, 1, xyz, n, &w, err);
+    wpd_warnings_print(stderr, "metrics", &w);
+    return rc;
+}
+
 static int run(const char *orig_path, const char *res_path, int json, wpd_error *err)
 {
     double *orig = NULL, *res = NULL;
     size_t n_orig, n_res;
-    if (wpd_metrics_load(orig_path, &orig, &n_orig, err))
+    if (load(orig_path, &orig, &n_orig, err))
         return -1;
-    if (wpd_metrics_load(res_path, &res, &n_res, err)) {
+    if (load(res_path, &res, &n_res, err)) {
         free(orig);
         return -1;
     }
@@ -570,7 +583,6 @@ int wpd_metrics_main(int argc, char **argv)
                 "(see 'wpd metrics --help')\n", argc - optind, argc - optind == 1 ? "" : "s");
         return WPD_E_USAGE;
     }
-    wpd_reader_print_warnings((const char *const *)argv + optind, 2, "metrics", stderr);
     wpd_error err = {0};
     if (run(argv[optind], argv[optind + 1], json, &err)) {
         fprintf(stderr, "wpd metrics: %s\n", err.msg[0] ? err.msg : "failed");

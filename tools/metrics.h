@@ -83,6 +83,7 @@
 #include <stdio.h>
 
 #include "common/error.h"
+#include "common/warnings.h"
 
 #define WPD_METRICS_K_LOCAL 6
 #define WPD_METRICS_K_VORONOI 12
@@ -125,9 +126,11 @@ int wpd_metrics_compute(const double *orig, size_t n_orig, const double *res, si
  * set (WPD_E_INPUT for a file without finite points). */
 int wpd_metrics_load(const char *path, double **xyz, size_t *n, wpd_error *err);
 
-/* wpd_metrics_load for several files read as one cloud. */
+/* wpd_metrics_load for several files read as one cloud; warnings: NULL, or
+ * room for npaths: each file's warnings (common/warnings.h) as its header
+ * holds them, filled once the files are open (zeroed before). */
 int wpd_metrics_load_many(const char *const *paths, int npaths, double **xyz, size_t *n,
-                          wpd_error *err);
+                          wpd_warnings *warnings, wpd_error *err);
 
 /* Writes m as one JSON object (field names above) and a newline. */
 void wpd_metrics_write_json(FILE *f, const wpd_metrics *m);

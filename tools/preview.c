@@ -184,6 +184,8 @@ int wpd_preview_render(const char *const *paths, int n, const wpd_preview_option
         pn[i].path = paths[i];
         if (!(pn[i].cloud = wpd_cloud_open(&paths[i], 1, err)))
             rc = -1;
+        else
+            pn[i].info.warnings = wpd_cloud_header(pn[i].cloud, 0)->warnings;
     }
     if (!rc)
         rc = render(pn, n, opt, img, sum, err);
@@ -200,6 +202,8 @@ int wpd_preview_write(const char *const *paths, int n, const char *out,
                       const wpd_preview_options *opt, wpd_preview_summary *summary,
                       wpd_error *err)
 {
+    if (summary) /* zero where nothing gets read: the caller prints its warnings */
+        memset(summary, 0, sizeof *summary);
     if (wpd_path_is_one_of(out, (char *const *)paths, n))
         return wpd_fail(err, WPD_E_USAGE, "%s: the output is also an input", out);
     wpd_outfile f;

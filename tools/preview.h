@@ -65,6 +65,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
+#include "common/warnings.h"
 
 #define WPD_PREVIEW_DEFAULT_WIDTH 1200
 #define WPD_PREVIEW_DEFAULT_HEIGHT 700
@@ -94,6 +95,7 @@ typedef struct wpd_preview_panel {
     double spacing_median;   /* NaN when none */
     double spacing_p99;      /* 99th percentile, NaN when none */
     uint64_t hist_beyond;    /* distances beyond the histogram axis */
+    wpd_warnings warnings;   /* the file's (common/warnings.h), once it opened */
 } wpd_preview_panel;
 
 typedef struct wpd_preview_summary {

@@ -88,9 +88,10 @@ int wpd_preview_main(int argc, char **argv)
     const char *const *paths = (const char *const *)argv + optind;
     wpd_error err = {0};
     wpd_preview_summary sum;
-    if (!quiet)
-        wpd_reader_print_warnings(paths, n, "preview", stderr);
-    if (wpd_preview_write(paths, n, out, &opt, &sum, &err)) {
+    int failed = wpd_preview_write(paths, n, out, &opt, &sum, &err);
+    for (int i = 0; !quiet && i < n; i++)
+        wpd_warnings_print(stderr, "preview", &sum.panel[i].warnings);
+    if (failed) {
         fprintf(stderr, "wpd preview: %s\n", err.msg[0] ? err.msg : "failed");
         return err.code ? (int)err.code : WPD_E_IO;
     }

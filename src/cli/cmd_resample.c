@@ -319,7 +319,7 @@ static int measure(char *const *inputs, int ninputs, const wpd_selection *sel,
     double *orig = NULL;
     size_t n_orig = 0;
     wpd_metrics m;
-    if (wpd_metrics_load_many((const char *const *)inputs, ninputs, &orig, &n_orig, err))
+    if (wpd_metrics_load_many((const char *const *)inputs, ninputs, &orig, &n_orig, NULL, err))
         return -1;
     int rc = wpd_metrics_compute(orig, n_orig, sel->xyz, sel->n, o->params.threads, &m, err);
     free(orig);

@@ -113,14 +113,3 @@ void wpd_reader_close(wpd_reader *r)
     wpd_header_free(&r->hdr);
     free(r);
 }
-
-void wpd_reader_print_warnings(const char *const *paths, int n, const char *command, FILE *f)
-{
-    for (int i = 0; i < n; i++) {
-        wpd_error ignored;
-        wpd_reader *r = wpd_reader_open(paths[i], &ignored);
-        if (r)
-            wpd_warnings_print(f, command, &r->hdr.warnings);
-        wpd_reader_close(r);
-    }
-}

@@ -9,8 +9,6 @@
 #ifndef WPD_READER_H
 #define WPD_READER_H
 
-#include <stdio.h>
-
 #include "common/error.h"
 #include "io/batch.h"
 #include "io/schema.h"
@@ -51,12 +49,5 @@ uint64_t wpd_reader_dropped(const wpd_reader *r);
 
 /* Closes the file and frees everything. NULL is allowed. */
 void wpd_reader_close(wpd_reader *r);
-
-/* Opens each of paths[0..n-1] and prints the warnings of its header on f
- * (see common/warnings.h), for a command that reads its inputs through an
- * interface that keeps the headers to itself. A file that cannot be opened
- * is skipped: the command reports that when it reads the file. For the
- * command line layer. */
-void wpd_reader_print_warnings(const char *const *paths, int n, const char *command, FILE *f);
 
 #endif
