@@ -22,9 +22,10 @@ int pf_read_all(const char *path, cf_cloud *c, wpd_error *err)
 
 int pf_clouds_equal(const cf_cloud *a, const cf_cloud *b)
 {
-    return a->n == b->n && a->record_size == b->record_size &&
-           !memcmp(a->records, b->records, a->n * a->record_size) &&
-           !memcmp(a->xyz, b->xyz, a->n * 3 * sizeof(double));
+    if (a->n != b->n || a->record_size != b->record_size)
+        return 0;
+    return a->n == 0 || (!memcmp(a->records, b->records, a->n * a->record_size) &&
+           !memcmp(a->xyz, b->xyz, a->n * 3 * sizeof(double)));
 }
 
 /* Expects opening (or, if it opens, reading) path to fail with a message
