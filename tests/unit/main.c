@@ -5,6 +5,7 @@
 #include "harness.h"
 
 #include <ftw.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -67,9 +68,21 @@ static test_case *reverse(test_case *t)
     return out;
 }
 
+/* The signal tests check what a signal does to wpd, which leaves a signal
+ * the process ignores ignored (nohup). A suite started in the background
+ * by a non-interactive shell (SIGINT ignored) or under nohup (SIGHUP) would
+ * hand that on to them: the default actions are restored first. */
+static void restore_default_signal_actions(void)
+{
+    static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+    for (size_t k = 0; k < sizeof sigs / sizeof *sigs; k++)
+        signal(sigs[k], SIG_DFL);
+}
+
 int main(int argc, char **argv)
 {
     const char *filter = argc > 1 ? argv[1] : NULL;
+    restore_default_signal_actions();
     int passed = 0, failed = 0;
     for (test_case *t = reverse(registry_head); t; t = t->next) {
         if (filter && !strstr(t->name, filter))
