@@ -340,9 +340,9 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
     const wpd_resample_timings *t = &r->time;
     printf("resampled %llu -> %zu points into %s\n", (unsigned long long)r->input_points,
            r->count, o->output ? o->output : o->per_input);
-    printf("  radius %.6g (estimate %.6g, first pass %zu points, %d passes%s, %zu before the "
-           "exact count)\n", r->radius, r->radius_estimate, r->first_pass_count, r->passes,
-           r->prune_passes ? " + prunes" : "", r->poisson_count);
+    printf("  radius %.6g (estimate %.6g, first pass %zu points, %d passes, %zu before the "
+           "exact count, %d sweeps)\n", r->radius, r->radius_estimate, r->first_pass_count,
+           r->passes, r->poisson_count, r->exact_sweeps);
     if (o->params.smooth)
         printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell), %zu pulled "
                "back to the input surface\n", o->params.iterations, r->open_cells,

@@ -101,11 +101,11 @@ static void write_body(FILE *f, const wpd_run_info *r)
     fprintf(f, "  \"first_pass_points\": %zu,\n  \"poisson_points\": %zu,\n"
                "  \"poisson_passes\": %d,\n  \"resolution_rounds\": %d,\n"
                "  \"resolution_tiles\": %d,\n"
-               "  \"prune_passes\": %d,\n"
+               "  \"exact_sweeps\": %d,\n"
                "  \"open_cells\": %zu,\n  \"pulled_to_surface\": %zu,\n",
             run->first_pass_count, run->poisson_count, run->passes, run->resolution_rounds,
             run->resolution_tiles,
-            run->prune_passes,
+            run->exact_sweeps,
             run->open_cells, run->pulled_to_surface);
     write_phases(f, r);
     write_tiles(f, r);

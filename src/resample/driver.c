@@ -224,7 +224,7 @@ static int run_phases(wpd_run *run, wpd_error *err)
         return -1;
     if (run->opt->target >= run->scan.count)
         return wpd_take_all_phase(run, err) || finish(run, err) ? -1 : 0;
-    /* The phases over all samples (prune, exact count) and the smoothing
+    /* The phase over all samples (the exact count) and the smoothing
      * start with the previous phase's free pages handed back (heap.h): the
      * peak is then the largest phase's, not their sum of holes. The tiles'
      * Poisson pass and the records pass reuse what the phase before left.

@@ -1,13 +1,12 @@
-/* flat.c - the flat sample set (flat.h), and the two steps that work on
- * it: pruning an overshooting pass, and the exact count. Both see every
- * sample at once, so they keep the Poisson property across tiles. */
+/* flat.c - the flat sample set (flat.h), and the exact count, which works
+ * on it: it sees every sample at once (and, in each sweep, every tile's
+ * input points), so it gives the same samples whatever the tiling. */
 #include "resample/flat.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "wpd/exact.h"
-#include "wpd/refine.h"
+#include "wpd/eliminate.h"
 
 void wpd_flat_free(wpd_flat *f)
 {
@@ -126,49 +125,43 @@ static int take_flat(wpd_run *run, wpd_flat *f, uint32_t **idx, const char *what
     return 0;
 }
 
-int wpd_prune_phase(wpd_run *run, double r_lo, wpd_error *err)
+/* One tile's own input points into the costs of a sweep. */
+static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
-    wpd_flat f = {0};
-    uint32_t *kept = NULL;
-    int rc = -1;
-    if (take_flat(run, &f, &kept, "pruning", err))
-        goto done;
-    long m = wpd_prune_to_range(f.xyz, f.gid, NULL, f.n, run->opt->target, r_lo, run->p->seed,
-                                run->threads, kept, &run->res->radius,
-                                &run->res->prune_passes, err);
-    if (m < 0)
-        goto done;
-    if (wpd_flat_to_store(run, &f, kept, (size_t)m)) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory pruning %zu samples", f.n);
-        goto done;
-    }
-    rc = 0;
-done:
-    wpd_flat_free(&f);
-    free(kept);
-    return rc;
+    wpd_tile_data d;
+    if (wpd_tiles_read(&run->tiles, t, &d, err))
+        return -1;
+    wpd_eliminate_add_points(arg, d.xyz, d.halo, d.n, threads);
+    wpd_tiles_release(&run->tiles, &d);
+    return 0;
 }
 
+/* Coverage-aware elimination down to n (eliminate.h): every sweep hands
+ * every tile's input points in once. */
 int wpd_exact_phase(wpd_run *run, wpd_error *err)
 {
     wpd_flat f = {0};
     uint32_t *idx = NULL;
+    wpd_eliminate e = {0};
     int rc = -1;
-    if (take_flat(run, &f, &idx, "the exact count", err))
+    if (take_flat(run, &f, &idx, "the exact count", err) ||
+        wpd_eliminate_init(&e, f.xyz, f.n, run->res->radius, run->threads, err))
         goto done;
-    for (size_t i = 0; i < f.n; i++)
-        idx[i] = (uint32_t)i;
-    wpd_exact_input in = {f.xyz, f.gid, NULL, 0, run->res->radius, run->threads};
-    int sweeps = 0;
-    long kept = wpd_exact_count(&in, idx, f.n, run->opt->target, &sweeps, err);
-    if (kept < 0)
-        goto done;
-    if (wpd_flat_to_store(run, &f, idx, (size_t)kept)) {
+    while (e.live > run->opt->target) {
+        if (wpd_eliminate_begin(&e, err) ||
+            wpd_run_each_tile(run, NULL, cost_tile, NULL, &e, err) ||
+            wpd_eliminate_sweep(&e, run->opt->target, err) < 0)
+            goto done;
+        run->res->exact_sweeps++;
+    }
+    size_t kept = wpd_eliminate_result(&e, idx);
+    if (wpd_flat_to_store(run, &f, idx, kept)) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
         goto done;
     }
     rc = 0;
 done:
+    wpd_eliminate_free(&e);
     wpd_flat_free(&f);
     free(idx);
     return rc;

@@ -1,5 +1,5 @@
 /* poisson_pass.c - the Poisson-disk passes over the tiles with the paper's
- * count refinement (an overshoot is pruned over all samples, flat.c), and
+ * count refinement (until a pass keeps at least n; refine.h), and
  * the take-everything run for n >= the input.
  *
  * A pass over tiles gives exactly the one-block sample set, whatever the
@@ -28,7 +28,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "common/heap.h"
 #include "core/grid.h"
 #include "core/knn.h"
 #include "core/sort.h"
@@ -567,11 +566,10 @@ static void pass_ctx_free(const wpd_run *run, pass_ctx *pc)
     memset(pc, 0, sizeof *pc);
 }
 
-/* Full passes with the paper's refinement until the count reaches
- * [n, 1.05 n], or overshoots: the overshoot is then pruned over all
- * samples (wpd_prune_phase). Full passes never run at a radius above the
- * estimate (an overshoot is pruned, an undershoot shrinks r), so the halo
- * of 2.5 r0 always holds the r-ball of every own point. */
+/* Full passes until one keeps at least n samples (refine.h); the exact
+ * count deletes the surplus. Passes never run at a radius above the
+ * estimate (only an undershoot changes r, and shrinks it), so the halo of
+ * 2.5 r0 always holds the r-ball of every own point. */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err)
 {
     size_t n = run->opt->target, count = 0;
@@ -594,15 +592,8 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
             run->res->first_pass_count = count;
         run->res->radius = pc.r;
         wpd_refine_status s = wpd_refine_report(&st, count);
-        if (s == WPD_REFINE_DONE || (s == WPD_REFINE_GAVE_UP && count <= n)) {
+        if (s != WPD_REFINE_AGAIN) {
             rc = 0;
-            break;
-        }
-        if (count > n) {
-            double r = pc.r;
-            pass_ctx_free(run, &pc); /* the pruning's peak is next */
-            wpd_heap_release();
-            rc = wpd_prune_phase(run, r, err);
             break;
         }
     }

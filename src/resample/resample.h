@@ -12,9 +12,10 @@
  *            the halo, into its neighbours: zstd spill files, or the one
  *            tile kept in memory;
  *   poisson  colour by colour, tiles of a colour in parallel (one tile: all
- *            threads); counts summed over tiles drive the refinement; an
- *            overshoot is pruned over all samples;
- *   exact    the exact count over all samples;
+ *            threads); counts summed over tiles drive the refinement until a
+ *            pass keeps at least n;
+ *   exact    the exact count over all samples: coverage-aware elimination,
+ *            each sweep reading every tile's input points;
  *   smooth   colour by colour: each tile's samples, its neighbours' samples
  *            as context, its input plus halo as the surface;
  *   records  the samples' records from a last streaming pass;
@@ -62,7 +63,8 @@ typedef struct wpd_resample_result {
     uint64_t *file_count;     /* [nfiles] finite points per input file */
     double radius_estimate, radius;
     size_t first_pass_count, poisson_count;
-    int passes, prune_passes; /* Poisson passes over the input; prunes of an overshoot */
+    int passes;               /* Poisson passes over the input */
+    int exact_sweeps;         /* sweeps of the exact count, each reading every tile */
     int resolution_rounds;    /* tile rounds re-run for points a tile's view could not
                                  decide (a chain of decisions past the halo) */
     int resolution_tiles;     /* tiles those rounds re-ran */

@@ -2,7 +2,7 @@
  * (internal to src/resample/; callers use resample.h).
  *
  * Samples live per tile (the store), in global-index order within a tile;
- * the flat steps (pruning, exact count, merge) see them all at once.
+ * the flat steps (exact count, merge) see them all at once.
  */
 #ifndef WPD_RUN_H
 #define WPD_RUN_H
@@ -78,7 +78,6 @@ int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
 int wpd_tile_pass(wpd_run *run, wpd_error *err);                 /* tile.c */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err);             /* poisson_pass.c */
 int wpd_take_all_phase(wpd_run *run, wpd_error *err);            /* poisson_pass.c */
-int wpd_prune_phase(wpd_run *run, double r_lo, wpd_error *err);  /* flat.c */
 int wpd_exact_phase(wpd_run *run, wpd_error *err);               /* flat.c */
 int wpd_smooth_phase(wpd_run *run, wpd_error *err);              /* smooth_pass.c */
 int wpd_merge_phase(wpd_run *run, wpd_error *err);               /* merge.c */

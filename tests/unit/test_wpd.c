@@ -14,7 +14,6 @@
 #include "core/pca.h"
 #include "core/voronoi.h"
 #include "harness.h"
-#include "wpd/exact.h"
 #include "wpd/ladder.h"
 #include "wpd/poisson.h"
 #include "wpd/radius.h"
@@ -219,21 +218,13 @@ TEST(wpd_poisson_context_reruns_match_one_shot_passes)
     scan_free(&s);
 }
 
-TEST(wpd_refine_follows_eq_6)
+TEST(wpd_refine_follows_eq_5_until_a_pass_keeps_n)
 {
     wpd_refine st;
     wpd_refine_init(&st, 1000, 2.0, 10);
     CHECK(wpd_refine_report(&st, 800) == WPD_REFINE_AGAIN); /* R = 0.2 */
     CHECK(fabs(st.r - 2.0 * (1 - 0.2 / 1.8)) < 1e-12);
-    CHECK(!wpd_refine_can_prune(&st));
-    double r = st.r;
-    CHECK(wpd_refine_report(&st, 1200) == WPD_REFINE_AGAIN); /* R = -0.2, mu = 0 */
-    CHECK(fabs(st.r - r * (1 + 0.2 / 3.0)) < 1e-12);
-    CHECK(wpd_refine_can_prune(&st));
-    r = st.r;
-    CHECK(wpd_refine_report(&st, 1100) == WPD_REFINE_AGAIN); /* mu = 0.5 now */
-    CHECK(fabs(st.r - r * (1 + 0.1 / 3.5)) < 1e-12);
-    CHECK(wpd_refine_report(&st, 1050) == WPD_REFINE_DONE);
+    CHECK(wpd_refine_report(&st, 1200) == WPD_REFINE_DONE); /* the surplus is eliminated */
     wpd_refine_init(&st, 10, 1.0, 2);
     CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_AGAIN);
     CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_GAVE_UP);
@@ -274,7 +265,9 @@ static int run(const scan *s, size_t target, const wpd_params *p, wpd_resample_r
     return run_tiled(s, target, p, 0, r);
 }
 
-TEST(wpd_refinement_lands_within_five_percent)
+/* The passes stop at the first count of n or more; the multiscale
+ * estimate lands within 50 % above n at once (1.3-1.4 n on this scene). */
+TEST(wpd_refinement_stops_at_a_pass_of_n_or_more)
 {
     scan s = scene(0.4, 5);
     wpd_params p;
@@ -286,7 +279,8 @@ TEST(wpd_refinement_lands_within_five_percent)
         for (int t = 0; t < 4; t++) {
             wpd_resample_result r;
             CHECK(run(&s, targets[t], &p, &r) == 0);
-            CHECK_MSG(r.poisson_count >= targets[t] && r.poisson_count <= 1.05 * targets[t],
+            CHECK_MSG(r.poisson_count >= targets[t] &&
+                          (m == 0 || (r.passes == 1 && r.poisson_count <= 1.5 * targets[t])),
                       "method %d target %zu: %zu after %d passes", m, targets[t], r.poisson_count,
                       r.passes);
             wpd_resample_result_free(&r);

@@ -1,0 +1,217 @@
+/* test_eliminate.c - the coverage-aware exact count (wpd/eliminate.h):
+ * costs as the definition reads, one sweep's deletions apart, the result
+ * independent of how the input is handed in, and no holes. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/hash.h"
+#include "harness.h"
+#include "wpd/eliminate.h"
+#include "wpd/poisson.h"
+
+static double unit(uint64_t *state)
+{
+    *state = wpd_mix64(*state + 0x9e3779b97f4a7c15ULL);
+    return (double)(*state >> 11) * 0x1p-53;
+}
+
+/* n points on a gently curved 30 x 20 sheet, with gid = index. */
+static double *sheet(size_t n, uint64_t seed, uint64_t **gid)
+{
+    double *xyz = malloc(3 * n * sizeof *xyz);
+    *gid = malloc(n * sizeof **gid);
+    uint64_t st = seed;
+    for (size_t i = 0; i < n; i++) {
+        double x = 30 * unit(&st), y = 20 * unit(&st);
+        xyz[3 * i] = x, xyz[3 * i + 1] = y, xyz[3 * i + 2] = 0.5 * sin(x / 5);
+        (*gid)[i] = i;
+    }
+    return xyz;
+}
+
+static double dist2(const double *a, const double *b)
+{
+    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+/* The samples of a maximal Poisson pass at radius r, as coordinates. */
+static double *poisson_samples(const double *xyz, const uint64_t *gid, size_t n, double r,
+                               size_t *m)
+{
+    uint32_t *kept = malloc(n * sizeof *kept);
+    wpd_error err = {0};
+    wpd_poisson_input in = {xyz, gid, NULL, NULL, n, NULL, 0, r, 7, 1};
+    long k = wpd_poisson_pass(&in, kept, &err);
+    *m = k > 0 ? (size_t)k : 0;
+    double *s = malloc((*m ? *m : 1) * 3 * sizeof *s);
+    for (size_t i = 0; i < *m; i++)
+        memcpy(s + 3 * i, xyz + 3 * (size_t)kept[i], 3 * sizeof *s);
+    free(kept);
+    return s;
+}
+
+/* Largest distance from an input point to its nearest live sample. */
+static double coverage(const double *xyz, size_t n, const double *s, const uint8_t *alive,
+                       size_t m)
+{
+    double worst = 0;
+    for (size_t i = 0; i < n; i++) {
+        double best = INFINITY;
+        for (size_t j = 0; j < m; j++)
+            if (alive[j] && dist2(xyz + 3 * i, s + 3 * j) < best)
+                best = dist2(xyz + 3 * i, s + 3 * j);
+        worst = fmax(worst, best);
+    }
+    return sqrt(worst);
+}
+
+/* Runs the elimination to target, handing the input in as `blocks` chunks
+ * in reverse order on `threads` threads. Returns the live flags. */
+static uint8_t *eliminate(const double *s, size_t m, const double *xyz, size_t n, size_t target,
+                          double r, int blocks, int threads, int *sweeps)
+{
+    wpd_eliminate e;
+    wpd_error err = {0};
+    uint8_t *alive = NULL;
+    if (wpd_eliminate_init(&e, s, m, r, threads, &err))
+        return NULL;
+    *sweeps = 0;
+    while (e.live > target) {
+        if (wpd_eliminate_begin(&e, &err))
+            goto done;
+        for (int b = blocks - 1; b >= 0; b--) {
+            size_t lo = n * (size_t)b / (size_t)blocks, hi = n * (size_t)(b + 1) / (size_t)blocks;
+            wpd_eliminate_add_points(&e, xyz + 3 * lo, NULL, hi - lo, threads);
+        }
+        if (wpd_eliminate_sweep(&e, target, &err) <= 0)
+            goto done;
+        ++*sweeps;
+    }
+    alive = malloc(m);
+    memcpy(alive, e.alive, m);
+done:
+    wpd_eliminate_free(&e);
+    return alive;
+}
+
+/* Input points beyond the samples' box (outliers) are handed in too. */
+TEST(eliminate_costs_are_the_holes_the_definition_gives)
+{
+    uint64_t *gid;
+    size_t n = 4000, m;
+    double *xyz = sheet(n, 3, &gid);
+    double *s = poisson_samples(xyz, gid, n, 1.2, &m);
+    for (size_t i = 0; i < 40; i++) { /* moved after the pass: far from every sample */
+        xyz[3 * i] = -10 + (double)i;
+        xyz[3 * i + 2] = i % 2 ? 6 : -6;
+    }
+    wpd_eliminate e;
+    wpd_error err = {0};
+    CHECK(wpd_eliminate_init(&e, s, m, 1.2, 2, &err) == 0);
+    CHECK(wpd_eliminate_begin(&e, &err) == 0);
+    wpd_eliminate_add_points(&e, xyz, NULL, n, 2);
+    double *want = calloc(m, sizeof *want);
+    for (size_t i = 0; i < n; i++) { /* nearest and second-nearest, ties by index */
+        size_t a = SIZE_MAX, b = SIZE_MAX;
+        double da = INFINITY, db = INFINITY;
+        for (size_t j = 0; j < m; j++) {
+            double d = dist2(xyz + 3 * i, s + 3 * j);
+            if (d < da) {
+                b = a, db = da, a = j, da = d;
+            } else if (d < db) {
+                b = j, db = d;
+            }
+        }
+        if (b != SIZE_MAX && db > want[a])
+            want[a] = db;
+    }
+    size_t wrong = 0;
+    for (size_t j = 0; j < m; j++) {
+        double got;
+        memcpy(&got, &e.cost[j], sizeof got);
+        wrong += got != want[j];
+    }
+    CHECK_MSG(wrong == 0, "%zu of %zu costs differ", wrong, m);
+    wpd_eliminate_free(&e);
+    free(want), free(s), free(xyz), free(gid);
+}
+
+TEST(eliminate_deletions_of_one_sweep_stay_apart)
+{
+    uint64_t *gid;
+    size_t n = 4000, m;
+    double *xyz = sheet(n, 5, &gid);
+    double *s = poisson_samples(xyz, gid, n, 1.0, &m);
+    wpd_eliminate e;
+    wpd_error err = {0};
+    CHECK(wpd_eliminate_init(&e, s, m, 1.0, 1, &err) == 0);
+    CHECK(wpd_eliminate_begin(&e, &err) == 0);
+    wpd_eliminate_add_points(&e, xyz, NULL, n, 1);
+    uint64_t *cost = malloc(m * sizeof *cost);
+    memcpy(cost, e.cost, m * sizeof *cost);
+    long del = wpd_eliminate_sweep(&e, m / 2, &err);
+    CHECK_MSG(del > 0 && e.live == m - (size_t)del, "deleted %ld of %zu", del, m);
+    size_t bad = 0;
+    for (size_t a = 0; a < m; a++)
+        for (size_t b = a + 1; b < m; b++) {
+            if (e.alive[a] || e.alive[b])
+                continue;
+            double ca, cb;
+            memcpy(&ca, &cost[a], sizeof ca), memcpy(&cb, &cost[b], sizeof cb);
+            bad += dist2(s + 3 * a, s + 3 * b) <= 4 * fmax(ca, cb);
+        }
+    CHECK_MSG(bad == 0, "%zu pairs deleted together within twice their cost", bad);
+    wpd_eliminate_free(&e);
+    free(cost), free(s), free(xyz), free(gid);
+}
+
+TEST(eliminate_result_does_not_depend_on_blocks_or_threads)
+{
+    uint64_t *gid;
+    size_t n = 6000, m;
+    double *xyz = sheet(n, 9, &gid);
+    double *s = poisson_samples(xyz, gid, n, 0.9, &m);
+    size_t target = m * 3 / 4;
+    int sw1, sw2;
+    uint8_t *a = eliminate(s, m, xyz, n, target, 0.9, 1, 1, &sw1);
+    uint8_t *b = eliminate(s, m, xyz, n, target, 0.9, 7, 2, &sw2);
+    CHECK(a && b);
+    size_t live = 0;
+    for (size_t j = 0; a && j < m; j++)
+        live += a[j];
+    CHECK_MSG(live == target, "%zu live, target %zu", live, target);
+    CHECK(a && b && !memcmp(a, b, m) && sw1 == sw2);
+    free(a), free(b), free(s), free(xyz), free(gid);
+}
+
+/* 5 % fewer samples than a maximal pass: the holes stay near r, where as
+ * many deleted at random open holes of up to 2 r. */
+TEST(eliminate_opens_no_holes)
+{
+    uint64_t *gid;
+    size_t n = 8000, m;
+    double *xyz = sheet(n, 11, &gid);
+    double r = 0.8;
+    double *s = poisson_samples(xyz, gid, n, r, &m);
+    size_t target = m - m / 20;
+    int sweeps;
+    uint8_t *alive = eliminate(s, m, xyz, n, target, r, 3, 2, &sweeps);
+    CHECK(alive != NULL);
+    uint8_t *all = malloc(m), *random = malloc(m);
+    memset(all, 1, m);
+    memset(random, 1, m);
+    uint64_t st = 1;
+    for (size_t k = 0; k < m - target;) {
+        size_t j = (size_t)(unit(&st) * (double)m);
+        if (random[j])
+            random[j] = 0, k++;
+    }
+    double before = coverage(xyz, n, s, all, m), after = coverage(xyz, n, s, alive, m),
+           at_random = coverage(xyz, n, s, random, m);
+    CHECK_MSG(before <= r && after <= 1.1 * r && at_random > 1.3 * r,
+              "coverage %.3f -> %.3f (random deletions %.3f), r %.3f, %d sweeps", before, after,
+              at_random, r, sweeps);
+    free(alive), free(all), free(random), free(s), free(xyz), free(gid);
+}
