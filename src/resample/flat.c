@@ -145,7 +145,7 @@ int wpd_exact_phase(wpd_run *run, wpd_error *err)
     wpd_eliminate e = {0};
     int rc = -1;
     if (take_flat(run, &f, &idx, "the exact count", err) ||
-        wpd_eliminate_init(&e, f.xyz, f.n, run->res->radius, run->threads, err))
+        wpd_eliminate_init(&e, f.xyz, f.edge, f.n, run->res->radius, run->threads, err))
         goto done;
     while (e.live > run->opt->target) {
         if (wpd_eliminate_begin(&e, err) ||

@@ -32,12 +32,13 @@ static void atomic_max(uint64_t *p, uint64_t v)
         ;
 }
 
-int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, size_t n, double spacing,
-                       int threads, wpd_error *err)
+int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, const uint8_t *half, size_t n,
+                       double spacing, int threads, wpd_error *err)
 {
     memset(e, 0, sizeof *e);
     e->n = e->live = n;
     e->xyz = xyz;
+    e->half = half;
     e->spacing = spacing > 0 ? spacing : 1.0;
     e->threads = threads > 0 ? threads : omp_get_max_threads();
     size_t m = n ? n : 1;
@@ -228,24 +229,36 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
     free(keys);
 }
 
-static int cmp_u64(const void *a, const void *b)
+static int cmp_double(const void *a, const void *b)
 {
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
 }
 
-/* (cost, index) order. */
-static int before(const wpd_eliminate *e, uint32_t a, uint32_t b)
+/* The order of deletion: the squared cost, relative to the sample's own
+ * radius (a sample of radius r/2 costs 4 times its squared hole). */
+static double rank_of(const wpd_eliminate *e, uint32_t s)
 {
-    return e->cost[a] < e->cost[b] || (e->cost[a] == e->cost[b] && a < b);
+    double c = double_of(e->cost[s]);
+    return e->half && e->half[s] ? 4 * c : c;
 }
 
-/* 1 if no sample marked in taken lies within twice the cost of s. */
-static int clear_around(const wpd_eliminate *e, const uint8_t *taken, uint32_t s)
+/* (rank, index) order. */
+static int before(const wpd_eliminate *e, uint32_t a, uint32_t b)
+{
+    double ra = rank_of(e, a), rb = rank_of(e, b);
+    return ra < rb || (ra == rb && a < b);
+}
+
+/* 1 if no sample marked in taken lies within twice the larger of its cost
+ * and s's (taken_cost: the largest squared cost taken so far). */
+static int clear_around(const wpd_eliminate *e, const uint8_t *taken, double taken_cost,
+                        uint32_t s)
 {
     const wpd_grid *g = &e->grid;
     const double *q = e->xyz + 3 * (size_t)s;
-    double reach2 = 4 * double_of(e->cost[s]);
+    double own = double_of(e->cost[s]);
+    double reach2 = 4 * (own > taken_cost ? own : taken_cost);
     int64_t lo[3], hi[3];
     if (!wpd_grid_box(g, q, sqrt(reach2), lo, hi))
         return 1;
@@ -258,14 +271,15 @@ static int clear_around(const wpd_eliminate *e, const uint8_t *taken, uint32_t s
                     continue;
                 const double *p = g->xyz + 3 * (size_t)k;
                 double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-                if (dx * dx + dy * dy + dz * dz <= reach2)
+                double theirs = double_of(e->cost[g->id[k]]);
+                if (dx * dx + dy * dy + dz * dz <= 4 * (own > theirs ? own : theirs))
                     return 0;
             }
         }
     return 1;
 }
 
-/* Sorts idx[0..m-1] by (cost, index) (a bottom-up merge sort: qsort's
+/* Sorts idx[0..m-1] by (rank, index) (a bottom-up merge sort: qsort's
  * comparison could not reach the costs without global state). */
 static int sort_by_cost(const wpd_eliminate *e, uint32_t *idx, size_t m)
 {
@@ -294,14 +308,14 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
     if (e->live <= target)
         return 0;
     size_t quota = e->live - target, m = e->live;
-    uint64_t *sorted = malloc(m * sizeof *sorted);
+    double *sorted = malloc(m * sizeof *sorted);
     uint32_t *cand = malloc(m * sizeof *cand);
     uint8_t *taken = calloc(e->n, 1);
     if (!sorted || !cand || !taken)
         goto oom;
     for (size_t i = 0; i < m; i++)
-        sorted[i] = e->cost[e->live_idx[i]];
-    qsort(sorted, m, sizeof *sorted, cmp_u64);
+        sorted[i] = rank_of(e, e->live_idx[i]);
+    qsort(sorted, m, sizeof *sorted, cmp_double);
     /* Candidates: the samples up to the cost of rank quota + min(quota,
      * m / 20). Up to rank quota alone, crowded neighbourhoods (whose
      * cheapest samples lie close together) left most of the quota to later
@@ -310,19 +324,21 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
      * samples that opened holes (Hausdorff 0.0033 of the diagonal against
      * 0.0013). */
     size_t rank = quota + (quota < m / 20 ? quota : m / 20);
-    uint64_t tau = sorted[(rank < m ? rank : m) - 1];
+    double tau = sorted[(rank < m ? rank : m) - 1];
     size_t nc = 0;
     for (size_t i = 0; i < m; i++)
-        if (e->cost[e->live_idx[i]] <= tau)
+        if (rank_of(e, e->live_idx[i]) <= tau)
             cand[nc++] = e->live_idx[i];
     if (sort_by_cost(e, cand, nc))
         goto oom;
-    /* In (cost, index) order, each candidate clear of those taken before:
+    /* In (rank, index) order, each candidate clear of those taken before:
      * no two deletions of the sweep touch each other's regions. */
     size_t deleted = 0;
+    double taken_cost = 0;
     for (size_t i = 0; i < nc && deleted < quota; i++)
-        if (clear_around(e, taken, cand[i])) {
+        if (clear_around(e, taken, taken_cost, cand[i])) {
             taken[cand[i]] = 1;
+            taken_cost = fmax(taken_cost, double_of(e->cost[cand[i]]));
             e->alive[cand[i]] = 0;
             deleted++;
         }

@@ -12,13 +12,14 @@
  * in sweeps that each need one look at every input point:
  *   1. every input point is handed in (wpd_eliminate_add_points, in any
  *      order, from any number of blocks): the costs of the live samples;
- *   2. wpd_eliminate_sweep deletes, of the samples whose cost is at most
- *      the q-th smallest (q: deletions still to make), those whose
- *      (cost, index) is the smallest among the live samples within twice
- *      their cost, the smallest first and at most q of them.
+ *   2. wpd_eliminate_sweep takes the samples up to the cost of rank
+ *      q + min(q, live / 20) (q: deletions still to make) in order of
+ *      (cost, index) and deletes each one that has no sample deleted
+ *      before it in the sweep within twice the larger of their costs,
+ *      until q are deleted.
  * Two samples deleted in one sweep never touch each other's regions or
- * second-nearest samples (the second rule), so each opens exactly the hole
- * its cost says. A sweep always deletes at least the sample of smallest
+ * second-nearest samples (the rule of step 2), so each opens exactly the
+ * hole its cost says. A sweep always deletes at least the sample of smallest
  * cost. The result depends only on the coordinates of the samples and of
  * the input points and on the sample order (ties by index): not on the
  * threads, nor on how the input is cut into blocks.
@@ -41,6 +42,7 @@ typedef struct wpd_eliminate {
     size_t n;             /* samples */
     size_t live;          /* samples not deleted */
     const double *xyz;    /* [3n] sample coordinates (the caller's) */
+    const uint8_t *half;  /* [n] 1: a sample of radius r/2 (sharp feature), or NULL */
     uint8_t *alive;       /* [n] */
     uint64_t *cost;       /* [n] squared cost as the bits of a double (>= 0,
                              so integer order is numeric order) */
@@ -51,10 +53,13 @@ typedef struct wpd_eliminate {
 } wpd_eliminate;
 
 /* Starts with all n samples (xyz[3i..3i+2], kept by the caller for the
- * life of e) live; spacing: the sample spacing (the radius), a grid hint.
- * Returns 0, or -1 with err set (out of memory). */
-int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, size_t n, double spacing,
-                       int threads, wpd_error *err);
+ * life of e) live; half (may be NULL): samples of radius r/2 (sharp
+ * features), whose holes count relative to their radius: they are ranked
+ * by 4 times their squared cost, or a crowded edge line would be the first
+ * to go. spacing: the sample spacing (the radius), a grid hint. Returns 0,
+ * or -1 with err set (out of memory). */
+int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, const uint8_t *half, size_t n,
+                       double spacing, int threads, wpd_error *err);
 
 /* Opens a sweep: indexes the live samples and zeroes their costs.
  * Returns 0, or -1 with err set. */
