@@ -12,8 +12,10 @@ size_t wpd_budget_tile_point_bytes(void)
 
 size_t wpd_budget_sample_bytes(uint32_t record_size)
 {
-    /* store 36, exact-count scratch ~70, result (index, xyz, record) */
-    return 140 + record_size;
+    /* store 36, exact-count scratch ~110 (flat copy 37, index 4, live flag,
+     * cost and list 13, grid over the live samples ~40, a sweep's lists
+     * ~17), result (index, xyz, record) */
+    return 180 + record_size;
 }
 
 size_t wpd_budget_samples_bytes(uint64_t target, uint32_t record_size)

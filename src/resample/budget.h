@@ -5,9 +5,9 @@
  *   fixed      48 MB: one thread's voxel ladder and batches, the plan, the
  *              runtime;
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
- *   samples    1.3 n x (140 + record size) bytes: the samples of a first
- *              pass that may overshoot n, the flat copy the pruning and
- *              the exact count work on, their records;
+ *   samples    1.3 n x (180 + record size) bytes: the samples of a first
+ *              pass that may overshoot n, the flat copy and the grid the
+ *              exact count works on, their records;
  *   tiles      the rest, for WPD_TILES_IN_FLIGHT tiles at
  *              wpd_budget_tile_point_bytes() a point.
  * A thread beyond the first in a streaming pass runs only where the budget
