@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # Helpers shared by the benchmark scripts (sourced).
 
 # median_seconds RUNS CMD...: runs CMD once to warm the page cache, then RUNS
@@ -7,11 +8,15 @@ median_seconds() {
     "$@" >/dev/null
     local times=()
     for _ in $(seq "$runs"); do
-        local t0 t1
+        local t0
         t0=$(date +%s.%N)
         "$@" >/dev/null
-        t1=$(date +%s.%N)
-        times+=("$(echo "$t1 - $t0" | bc -l)")
+        times+=("$(seconds_since "$t0")")
     done
     printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'
+}
+
+# seconds_since T0: wall seconds elapsed since T0 (a `date +%s.%N` value).
+seconds_since() {
+    echo "$(date +%s.%N) - $1" | bc -l
 }
