@@ -345,8 +345,9 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
            r->passes, r->poisson_count, r->exact_sweeps);
     if (o->params.smooth)
         printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell), %zu pulled "
-               "back to the input surface\n", o->params.iterations, r->open_cells,
-               r->pulled_to_surface);
+               "back to the input surface, %zu kept still (no surface around them), %zu "
+               "isolated, %zu moves shortened for spacing and cover\n", o->params.iterations,
+               r->open_cells, r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
     if (o->params.sharp)
         printf("  sharp features: %llu input points labelled\n",
                (unsigned long long)r->sharp_points);

@@ -102,11 +102,13 @@ static void write_body(FILE *f, const wpd_run_info *r)
                "  \"poisson_passes\": %d,\n  \"resolution_rounds\": %d,\n"
                "  \"resolution_tiles\": %d,\n"
                "  \"exact_sweeps\": %d,\n"
-               "  \"open_cells\": %zu,\n  \"pulled_to_surface\": %zu,\n",
+               "  \"open_cells\": %zu,\n  \"pulled_to_surface\": %zu,\n"
+               "  \"non_surface\": %zu,\n  \"isolated\": %zu,\n  \"guarded_moves\": %zu,\n",
             run->first_pass_count, run->poisson_count, run->passes, run->resolution_rounds,
             run->resolution_tiles,
             run->exact_sweeps,
-            run->open_cells, run->pulled_to_surface);
+            run->open_cells, run->pulled_to_surface, run->non_surface, run->isolated,
+            run->guarded_moves);
     write_phases(f, r);
     write_tiles(f, r);
     fprintf(f, "  \"peak_rss_bytes\": %lld,\n", (long long)r->peak_rss_kb * 1024);

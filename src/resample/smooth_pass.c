@@ -2,7 +2,14 @@
  * samples with its neighbours' samples within 3 r as context (at their
  * current positions: already smoothed for earlier colours) and a grid over
  * its input points and halo as the surface. Sharp-feature samples stay
- * where they are. */
+ * where they are. The context stays put while a tile is smoothed and the
+ * spacing guard keeps the tile's samples clear of it, so a tile smoothed
+ * later keeps clear of its neighbours' final positions; no sample strays
+ * more than r from its start and the guard looks at most 1.25 r around
+ * it, so 3 r of context holds every sample the guard must see. The halo
+ * (2.5 r) holds the input points whose cover the tile's samples keep, but
+ * for points farther than 1.5 r from every sample (holes the exact count
+ * left) just past it: their cover is kept in memory, not quite in tiles. */
 #include "resample/run.h"
 
 #include <stdlib.h>
@@ -45,6 +52,12 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     run->res->open_cells += st.open_cells;
 #pragma omp atomic
     run->res->pulled_to_surface += st.pulled_to_surface;
+#pragma omp atomic
+    run->res->non_surface += st.volume_fixed;
+#pragma omp atomic
+    run->res->isolated += st.isolated_fixed;
+#pragma omp atomic
+    run->res->guarded_moves += st.shortened + st.refused;
     rc = 0;
 done:
     wpd_grid_free(&own);

@@ -1,4 +1,11 @@
-/* smooth.c - tangent-plane Voronoi smoothing, kept on the input surface. */
+/* smooth.c - tangent-plane Voronoi smoothing, kept on the input surface,
+ * with the Poisson spacing and the input's cover guarded (smooth_guard.h).
+ *
+ * Before the iterations: neighbours, normals, which samples stay (sharp,
+ * no surface around them, isolated), the owners of the input points. Each
+ * iteration: every sample plans its Voronoi move and announces the longest
+ * step it may take; then each moves as far along its plan as the guards
+ * allow, put back on the input surface. */
 #include "wpd/smooth.h"
 
 #include <math.h>
@@ -9,18 +16,34 @@
 #include "core/knn.h"
 #include "core/pca.h"
 #include "core/voronoi.h"
+#include "wpd/smooth_guard.h"
+
+/* Why a sample keeps its place through every iteration (0: it may move). */
+enum {
+    FREE = 0,
+    STILL_SHARP,    /* sharp-feature sample with a normal (non-sharp) neighbour */
+    STILL_VOLUME,   /* its neighbourhood is no surface (see SURFACE_VARIATION_MAX) */
+    STILL_ISOLATED  /* no scanned surface around it at the sampling's scale */
+};
 
 /* The samples in grid cell order ("order space"): neighbouring samples
- * are neighbours in memory, which keeps every array below in cache. */
+ * are neighbours in memory, which keeps every array below in cache. The
+ * context samples follow the n samples in pos (index n + c), where the
+ * neighbour lists and the spacing guard find them. */
 typedef struct frames {
-    size_t n;        /* samples */
+    size_t n, nctx;  /* samples, context samples */
     int k;
     uint32_t *perm;  /* [n] order position -> sample index */
-    double *pos;     /* [3n] positions, order space */
+    double *pos;     /* [3(n + nctx)] positions, order space, then the context */
+    double *start;   /* [3n] positions before smoothing, order space */
     uint32_t *nb;    /* [n*k] neighbours: order position if < n, else n + context index */
     uint8_t *cnt;    /* [n] neighbours found */
     double *uvn;     /* [9n] u, v, normal */
-    uint8_t *fixed;  /* [n] 1: sharp sample with a normal neighbour */
+    uint8_t *still;  /* [n] FREE or why the sample stays */
+    uint8_t *half;   /* [n + nctx] sharp-feature sample (radius r/2), or NULL */
+    uint8_t *pulled; /* [n] its position was pulled back to the input surface */
+    double *plan;    /* [3n] this iteration's Voronoi move of each sample */
+    double *cap;     /* [n] longest step each plans this iteration (smooth_guard.h) */
     float *rho;      /* [n] last k-th distance to the input: next search radius */
     double *plane;   /* [9n] input plane last fitted for each sample: the point it
                         was fitted at, its centroid, its normal */
@@ -31,33 +54,98 @@ static void free_frames(frames *f)
 {
     free(f->perm);
     free(f->pos);
+    free(f->start);
     free(f->nb);
     free(f->cnt);
     free(f->uvn);
-    free(f->fixed);
+    free(f->still);
+    free(f->half);
+    free(f->pulled);
+    free(f->plan);
+    free(f->cap);
     free(f->rho);
     free(f->plane);
     free(f->fitted);
 }
 
-static int alloc_frames(frames *f, size_t n, int k)
+static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
 {
-    size_t m = n ? n : 1;
-    f->n = n;
+    size_t m = in->n ? in->n : 1, all = in->n + in->nctx;
+    f->n = in->n;
+    f->nctx = in->nctx;
     f->k = k;
     f->perm = malloc(m * sizeof *f->perm);
-    f->pos = malloc(3 * m * sizeof *f->pos);
+    f->pos = malloc(3 * (all ? all : 1) * sizeof *f->pos);
+    f->start = malloc(3 * m * sizeof *f->start);
     f->nb = malloc(m * (size_t)k * sizeof *f->nb);
     f->cnt = malloc(m);
     f->uvn = malloc(9 * m * sizeof *f->uvn);
-    f->fixed = calloc(m, 1);
+    f->still = calloc(m, 1);
+    f->half = in->edge ? calloc(all ? all : 1, 1) : NULL;
+    f->pulled = calloc(m, 1);
+    f->plan = malloc(3 * m * sizeof *f->plan);
+    f->cap = malloc(m * sizeof *f->cap);
     f->rho = malloc(m * sizeof *f->rho);
     f->plane = malloc(9 * m * sizeof *f->plane);
     f->fitted = calloc(m, 1);
-    return f->perm && f->pos && f->nb && f->cnt && f->uvn && f->fixed && f->rho && f->plane &&
-                   f->fitted
-               ? 0
-               : -1;
+    int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
+             (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
+             f->fitted;
+    return ok ? 0 : -1;
+}
+
+/* A sample moves only where its neighbourhood is a surface: in vegetation
+ * and stacked multiple returns the tangent plane is arbitrary, and a
+ * Voronoi move there shuffles samples through the volume. The test is the
+ * surface variation sigma = lambda_min / (sum of lambdas) of the sample and
+ * its k neighbours (Pauly et al. 2002, as --sharp uses on the input).
+ * Measured on Poisson samples (14 points, as here): a plane with noise of
+ * 0.15 r 0.002-0.008, a sphere of radius 3 r 0.03-0.04, a 90-degree crease
+ * 0.05-0.09, two sheets 1 r apart 0.05-0.12, a volume 0.19 and up (1st
+ * percentile). On the scans, 0.1 evens the cells more than 0.06 (Voronoi
+ * CV lower in 8 of 8 cases that move; on lone-star_tile1 at 10 K, 0.06
+ * left it above --no-smooth's) and leaves the volumes still: 76 % of the
+ * samples of the wooded NC Raleigh scan at 100 K. docs/algorithm.md
+ * section 4. */
+#define SURFACE_VARIATION_MAX 0.1
+
+/* Neighbours, normal, tangent frame and whether sample o may move. all:
+ * samples (source order) then context samples; g: grid over all. */
+static int frame_one(const wpd_smooth_input *in, frames *f, const wpd_grid *g,
+                     const double *all, const uint32_t *inv, size_t o, double *hint)
+{
+    size_t n = in->n, i = f->perm[o];
+    int k = f->k;
+    uint32_t *nb = f->nb + o * (size_t)k;
+    double d2[WPD_KNN_MAX];
+    int got = wpd_knn(g, all + 3 * i, k, (uint32_t)i, INFINITY, *hint, nb, d2);
+    f->cnt[o] = (uint8_t)got;
+    if (got > 0)
+        *hint = 1.1 * sqrt(d2[got - 1]);
+    uint32_t pts[WPD_KNN_MAX + 1];
+    pts[0] = (uint32_t)i;
+    memcpy(pts + 1, nb, (size_t)got * sizeof *nb);
+    wpd_plane pl;
+    wpd_plane_fit(all, pts, got + 1, &pl);
+    double *uvn = f->uvn + 9 * o;
+    wpd_tangent_frame(pl.normal, uvn, uvn + 3);
+    memcpy(uvn + 6, pl.normal, sizeof pl.normal);
+    int sharp_with_normal_neighbour = 0;
+    for (int j = 0; j < got; j++) {
+        /* A neighbouring block's sample counts by its own label: a tile
+         * border must not fix an edge sample that the whole cloud would
+         * move. */
+        if (in->edge && in->edge[i]) {
+            int nb_sharp = nb[j] < n ? in->edge[nb[j]] : in->ctx_edge && in->ctx_edge[nb[j] - n];
+            sharp_with_normal_neighbour |= !nb_sharp;
+        }
+        nb[j] = nb[j] < n ? inv[nb[j]] : nb[j]; /* to order space */
+    }
+    if (sharp_with_normal_neighbour)
+        f->still[o] = STILL_SHARP;
+    else if (got >= 3 && pl.variation > SURFACE_VARIATION_MAX)
+        f->still[o] = STILL_VOLUME;
+    return sharp_with_normal_neighbour;
 }
 
 /* Neighbour lists, normals and tangent frames, once before the iterations. */
@@ -65,7 +153,6 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
                         wpd_error *err)
 {
     size_t n = in->n, total = in->n + in->nctx;
-    int k = f->k;
     /* Samples then context samples, one array for the neighbour grid. */
     double *all = malloc(3 * total * sizeof *all);
     uint32_t *inv = malloc((n ? n : 1) * sizeof *inv);
@@ -80,7 +167,7 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
         memcpy(all + 3 * n, in->ctx_xyz, 3 * in->nctx * sizeof *all);
     /* A Poisson sample at radius r has about 13 others within 2.5 r. */
     double cell = in->spacing > 0 ? 2.6 * in->spacing : 1;
-    if (wpd_grid_build_knn(&g, all, NULL, total, k, cell, threads, err) < 0)
+    if (wpd_grid_build_knn(&g, all, NULL, total, f->k, cell, threads, err) < 0)
         goto done;
     size_t m = 0;
     for (size_t s = 0; s < total; s++)
@@ -91,7 +178,14 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
     for (size_t o = 0; o < n; o++) {
         memcpy(f->pos + 3 * o, in->xyz + 3 * (size_t)f->perm[o], 3 * sizeof *f->pos);
         f->rho[o] = (float)in->surface_hint;
+        if (f->half)
+            f->half[o] = in->edge[f->perm[o]];
     }
+    memcpy(f->start, f->pos, 3 * n * sizeof *f->start);
+    if (in->nctx)
+        memcpy(f->pos + 3 * n, in->ctx_xyz, 3 * in->nctx * sizeof *f->pos);
+    for (size_t c = 0; f->half && in->ctx_edge && c < in->nctx; c++)
+        f->half[n + c] = in->ctx_edge[c];
     size_t nsharp = 0;
 #pragma omp parallel num_threads(threads) reduction(+ : nsharp)
     {
@@ -99,37 +193,8 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
          * the previous (nearby) sample: only speed depends on it. */
         double hint = 2.6 * in->spacing;
 #pragma omp for schedule(dynamic, 256)
-        for (size_t o = 0; o < n; o++) {
-            size_t i = f->perm[o];
-            uint32_t *nb = f->nb + o * (size_t)k;
-            double d2[WPD_KNN_MAX];
-            int got = wpd_knn(&g, all + 3 * i, k, (uint32_t)i, INFINITY, hint, nb, d2);
-            f->cnt[o] = (uint8_t)got;
-            if (got > 0)
-                hint = 1.1 * sqrt(d2[got - 1]);
-            uint32_t pts[WPD_KNN_MAX + 1];
-            pts[0] = (uint32_t)i;
-            memcpy(pts + 1, nb, (size_t)got * sizeof *nb);
-            wpd_plane pl;
-            wpd_plane_fit(all, pts, got + 1, &pl);
-            double *uvn = f->uvn + 9 * o;
-            wpd_tangent_frame(pl.normal, uvn, uvn + 3);
-            memcpy(uvn + 6, pl.normal, sizeof pl.normal);
-            int sharp_with_normal_neighbour = 0;
-            for (int j = 0; j < got; j++) {
-                /* A neighbouring block's sample counts by its own label:
-                 * a tile border must not fix an edge sample that the
-                 * whole cloud would move. */
-                if (in->edge && in->edge[i]) {
-                    int nb_sharp = nb[j] < n ? in->edge[nb[j]]
-                                             : in->ctx_edge && in->ctx_edge[nb[j] - n];
-                    sharp_with_normal_neighbour |= !nb_sharp;
-                }
-                nb[j] = nb[j] < n ? inv[nb[j]] : nb[j]; /* to order space */
-            }
-            f->fixed[o] = (uint8_t)sharp_with_normal_neighbour;
-            nsharp += sharp_with_normal_neighbour;
-        }
+        for (size_t o = 0; o < n; o++)
+            nsharp += (size_t)frame_one(in, f, &g, all, inv, o, &hint);
     }
     *sharp_fixed = nsharp;
     rc = 0;
@@ -193,10 +258,11 @@ static void project_on_surface(const wpd_grid *surface, const frames *f, size_t 
  * 0.257, 0.113, 0.285). */
 enum { VORONOI_NEIGHBOURS = 8 };
 
-/* New position of the sample at order position o from the previous
- * positions; returns 1 if it moved, 0 if it stays (open cell). */
-static int smooth_one(const wpd_smooth_input *in, const frames *f, const double *prev, size_t o,
-                      double out[3])
+/* The move (3D, within the tangent plane) that takes sample o from its
+ * previous position to the chosen centre of its Voronoi cell; returns 0 if
+ * the cell is open (the sample stays). */
+static int cell_move(const wpd_smooth_input *in, const frames *f, const double *prev, size_t o,
+                     double m[3])
 {
     const double *p = prev + 3 * o;
     const double *u = f->uvn + 9 * o, *v = u + 3;
@@ -204,13 +270,12 @@ static int smooth_one(const wpd_smooth_input *in, const frames *f, const double 
     /* The cell is built from the nearest VORONOI_NEIGHBOURS of the k whose
      * normal fit defines the plane (see the constant); the release's mode
      * keeps all k, as the release does. */
-    int all = f->cnt[o], m = all;
-    if (in->mode != WPD_SMOOTH_VERTEX_MEAN && m > VORONOI_NEIGHBOURS)
-        m = VORONOI_NEIGHBOURS;
+    int all = f->cnt[o], cut = all;
+    if (in->mode != WPD_SMOOTH_VERTEX_MEAN && cut > VORONOI_NEIGHBOURS)
+        cut = VORONOI_NEIGHBOURS;
     double q[2 * WPD_KNN_MAX], frame = 0;
     for (int j = 0; j < all; j++) {
-        const double *pj = nb[j] < f->n ? prev + 3 * (size_t)nb[j]
-                                        : in->ctx_xyz + 3 * (size_t)(nb[j] - f->n);
+        const double *pj = prev + 3 * (size_t)nb[j]; /* a sample or a context sample */
         double d[3] = {pj[0] - p[0], pj[1] - p[1], pj[2] - p[2]};
         q[2 * j] = d[0] * u[0] + d[1] * u[1] + d[2] * u[2];
         q[2 * j + 1] = d[0] * v[0] + d[1] * v[1] + d[2] * v[2];
@@ -219,22 +284,16 @@ static int smooth_one(const wpd_smooth_input *in, const frames *f, const double 
     /* The frame spans all k neighbours: a cell cut by the nearest few that
      * reaches past the farthest of the k is open. */
     wpd_voronoi_cell cell;
-    wpd_voronoi_cell_2d(q, m, frame, &cell);
+    wpd_voronoi_cell_2d(q, cut, frame, &cell);
     double c[2];
     int ok = cell.closed;
     if (in->mode == WPD_SMOOTH_COTAN)
-        ok = wpd_cotan_average(q, m, &cell, c);
+        ok = wpd_cotan_average(q, cut, &cell, c);
     else
         memcpy(c, in->mode == WPD_SMOOTH_VERTEX_MEAN ? cell.vertex_mean : cell.centroid, sizeof c);
-    if (!ok) {
-        memcpy(out, p, 3 * sizeof *out);
-        return 0;
-    }
     for (int a = 0; a < 3; a++)
-        out[a] = p[a] + c[0] * u[a] + c[1] * v[a];
-    if (in->surface)
-        project_on_surface(in->surface, f, o, out);
-    return 1;
+        m[a] = ok ? c[0] * u[a] + c[1] * v[a] : 0;
+    return ok;
 }
 
 /* The guarantee behind keeping samples on the surface: no sample ends
@@ -244,8 +303,8 @@ static int smooth_one(const wpd_smooth_input *in, const frames *f, const double 
  * at corners; a sample whose nearest input point q is farther than
  * spacing(q) (the mean distance from q to its SPACING_K nearest input
  * neighbours, the definition `wpd metrics` reports drift against) is
- * pulled straight towards q until it is exactly that far. Returns how many
- * samples were pulled. */
+ * pulled straight towards q until it is that far (hold_on_surface, on
+ * every position a move tries). */
 enum { SPACING_K = 6 };
 
 /* Input point nearest to p (its slot in *near) and, in *spacing, the
@@ -298,11 +357,13 @@ static void round_to_output(const double res[3], const double p[3], double out[3
 
 /* A sample on no scanned surface at the sampling's scale - an isolated
  * return, a noise spike, a lone wire point - has input neighbours sparser
- * than half the sample spacing around its starting position. Its tangent
- * plane means nothing and its Voronoi cell is as large as the gap around
- * it, so smoothing would throw it across that gap (tens of feet on the NC
- * Raleigh scan's spikes) and open a hole where it was: it keeps its
- * starting position. */
+ * than the samples around its starting position (mean distance to the 6
+ * nearest input points above r). Its tangent plane means nothing and its
+ * Voronoi cell is as large as the gap around it: it keeps its starting
+ * position. (The bound was half of r before the coverage guard kept such
+ * a sample from opening a hole; at 10 % of the input the input spacing is
+ * about 0.45 r on an even surface, and half of r kept 27-40 % of the
+ * samples of lato270 and lone-star_tile1 still.) */
 static int off_surface(const wpd_grid *surface, const double start[3], double spacing)
 {
     /* A sample starts on an input point: its 7 nearest are that point and
@@ -312,88 +373,222 @@ static int off_surface(const wpd_grid *surface, const double start[3], double sp
     int got = wpd_knn_slots(surface, start, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
     for (int j = 1; j < got; j++)
         local += sqrt(d2[j]);
-    return got > 1 && local / (got - 1) > 0.5 * spacing;
+    return got > 1 && local / (got - 1) > spacing;
 }
 
-static size_t clamp_to_surface(const wpd_grid *surface, double *pos, const double *start,
-                               size_t n, double spacing, const double res[3], int threads)
+/* Keeps a moved sample p within the input's local spacing of the input,
+ * judged as the output will store it, and leaves it rounded to the
+ * output's lattice. Pulling p changes its nearest input point, whose
+ * spacing may be smaller: a few rounds, then onto the input point itself
+ * (exact in any output: it is an input point). Returns 1 if p was pulled. */
+static int hold_on_surface(const wpd_grid *surface, const double res[3], double p[3])
 {
-    size_t pulled = 0;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : pulled)
-    for (size_t o = 0; o < n; o++) {
-        double *p = pos + 3 * o;
-        const double *p0 = start + 3 * o;
-        if (p[0] == p0[0] && p[1] == p0[1] && p[2] == p0[2])
-            continue; /* never moved: it is an input point */
-        if (off_surface(surface, p0, spacing)) {
-            memcpy(p, p0, 3 * sizeof *p);
+    for (int round = 0;; round++) {
+        uint32_t near;
+        double stored[3], spacing = 0;
+        round_to_output(res, p, stored);
+        double d = nearest_with_spacing(surface, stored, &near, &spacing);
+        if (d <= spacing) {
+            memcpy(p, stored, sizeof stored);
+            return round > 0;
+        }
+        const double *q = surface->xyz + 3 * (size_t)near;
+        double f = round < 4 ? 0.99 * spacing / d : 0;
+        for (int a = 0; a < 3; a++)
+            p[a] = q[a] + (stored[a] - q[a]) * f;
+        if (f == 0)
+            return 1;
+    }
+}
+
+/* Samples on no surface at their start keep it (see off_surface). */
+static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
+{
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
+    for (size_t o = 0; o < f->n; o++)
+        if (f->still[o] == FREE && off_surface(in->surface, f->pos + 3 * o, in->spacing))
+            f->still[o] = STILL_ISOLATED;
+}
+
+/* Longest step of one iteration, in units of r. Lloyd steps on a Poisson
+ * sample are mostly a few hundredths of r, rarely a few tenths; the cap
+ * bounds the reach of the spacing guard (0.75 r + 2 steps) and so how many
+ * samples it checks. */
+#define STEP_MAX 0.25
+
+/* No sample ends farther than this (units of r) from where the Poisson
+ * pass put it, whatever the iterations: the tiles rely on it (a tile's
+ * context reaches 3 r past its box; smooth_pass.c). */
+#define WANDER_MAX 1.0
+
+/* A float32 PLY stores each coordinate to within r/2000 (cmd_resample
+ * writes doubles where the float spacing is coarser than r/1000), which can
+ * close a pair by up to 0.0017 r after the guard has judged it; LAS output
+ * is judged already rounded (hold_on_surface). Units of r. */
+#define STORE_MARGIN 0.002
+
+typedef struct guards {
+    wpd_spacing_guard spacing;
+    wpd_grid grid;          /* over the previous positions, rebuilt each iteration */
+    wpd_cover cover;        /* empty (n = 0) without the input points */
+} guards;
+
+enum { MOVE_FULL, MOVE_SHORTENED, MOVE_REFUSED };
+
+/* Tries p + t m, put back on the surface, into q: 1 if the guards allow
+ * it. */
+static int try_move(const wpd_smooth_input *in, frames *f, const guards *g,
+                    const wpd_spacing_near *near, const double m[3], double t, double q[3])
+{
+    size_t o = near->o;
+    for (int a = 0; a < 3; a++)
+        q[a] = near->p[a] + t * m[a];
+    int pulled = 0;
+    if (in->surface) {
+        project_on_surface(in->surface, f, o, q);
+        pulled = hold_on_surface(in->surface, in->resolution, q);
+    }
+    const double *s0 = f->start + 3 * o;
+    double w2 = (q[0] - s0[0]) * (q[0] - s0[0]) + (q[1] - s0[1]) * (q[1] - s0[1]) +
+                (q[2] - s0[2]) * (q[2] - s0[2]);
+    double wander = WANDER_MAX * g->spacing.r;
+    if (w2 > wander * wander || !wpd_spacing_allows(&g->spacing, near, q) ||
+        (g->cover.n && !wpd_cover_holds(&g->cover, o, q)))
+        return 0;
+    f->pulled[o] = (uint8_t)pulled;
+    return 1;
+}
+
+/* Moves sample o from p along m (its Voronoi move) as far as the guards
+ * allow: the move is first cut to the sample's cap and to what keeps its
+ * input points covered along the straight path; the end point, put back on
+ * the surface, is then checked for spacing and coverage, and the move
+ * shortened until it passes; after the last try the sample stays. Writes
+ * the position to out; returns MOVE_*. */
+static int guarded_move(const wpd_smooth_input *in, frames *f, const guards *g, size_t o,
+                        const double p[3], const double m[3], double out[3])
+{
+    static const double shorter[] = {1, 0.7, 0.5, 0.35, 0.2};
+    double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]), t = 1;
+    memcpy(out, p, 3 * sizeof *out);
+    if (len <= 0)
+        return MOVE_FULL;
+    if (len > f->cap[o])
+        t = f->cap[o] / len;
+    if (g->cover.n)
+        t = fmin(t, wpd_cover_limit(&g->cover, o, p, m));
+    wpd_spacing_near near;
+    wpd_spacing_gather(&g->spacing, o, p, &near);
+    for (int a = 0; a < (int)(sizeof shorter / sizeof *shorter) && t > 0; a++)
+        if (try_move(in, f, g, &near, m, t * shorter[a], out))
+            return t * shorter[a] < 1 ? MOVE_SHORTENED : MOVE_FULL;
+    memcpy(out, p, 3 * sizeof *out);
+    return MOVE_REFUSED;
+}
+
+/* The projection back onto the surface adds a little to a planned step:
+ * the cap a sample announces to its neighbours leaves room for it. */
+#define PLAN_ROOM 1.25
+
+/* First half of an iteration: every sample's Voronoi move and the longest
+ * step it plans (0 for one that stays). Returns the open cells. */
+static size_t plan_moves(const wpd_smooth_input *in, frames *f, const double *prev,
+                         double step_max, int threads)
+{
+    size_t open = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : open)
+    for (size_t o = 0; o < f->n; o++) {
+        double *m = f->plan + 3 * o;
+        f->cap[o] = 0;
+        if (f->still[o])
+            continue;
+        if (!cell_move(in, f, prev, o, m)) {
+            open++;
             continue;
         }
-        /* The position is judged as the output will store it. Pulling p
-         * changes its nearest input point, whose spacing may be smaller: a
-         * few rounds, then onto the input point itself (exact in any output:
-         * it is an input point). */
-        for (int round = 0;; round++) {
-            uint32_t near;
-            double stored[3], spacing = 0;
-            round_to_output(res, p, stored);
-            double d = nearest_with_spacing(surface, stored, &near, &spacing);
-            if (d <= spacing) {
-                memcpy(p, stored, sizeof stored);
-                break;
-            }
-            const double *q = surface->xyz + 3 * (size_t)near;
-            double f = round < 4 ? 0.99 * spacing / d : 0;
-            for (int a = 0; a < 3; a++)
-                p[a] = q[a] + (stored[a] - q[a]) * f;
-            pulled += round == 0;
-            if (f == 0)
-                break;
-        }
+        f->cap[o] = fmin(step_max, PLAN_ROOM * sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]));
     }
-    return pulled;
+    return open;
+}
+
+/* One Jacobi iteration from prev to next (context samples included, and
+ * unchanged). Every sample reads prev and the plans only: threads cannot
+ * matter. */
+static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const double *prev,
+                   double *next, int threads, wpd_smooth_stats *st, wpd_error *err)
+{
+    size_t n = f->n;
+    if (wpd_grid_build(&g->grid, prev, NULL, n + f->nctx, wpd_spacing_reach(&g->spacing),
+                       threads, err))
+        return -1;
+    g->spacing.grid = &g->grid;
+    g->spacing.pos = prev;
+    st->open_cells = plan_moves(in, f, prev, g->spacing.step_max, threads);
+    if (g->cover.n && wpd_cover_update(&g->cover, &g->spacing, prev, threads, err))
+        return -1;
+    size_t shortened = 0, refused = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) \
+    reduction(+ : shortened, refused)
+    for (size_t o = 0; o < n; o++) {
+        const double *p = prev + 3 * o;
+        memcpy(next + 3 * o, p, 3 * sizeof *next);
+        if (f->cap[o] <= 0)
+            continue;
+        int how = guarded_move(in, f, g, o, p, f->plan + 3 * o, next + 3 * o);
+        shortened += how == MOVE_SHORTENED;
+        refused += how == MOVE_REFUSED;
+    }
+    st->shortened += shortened;
+    st->refused += refused;
+    return 0;
+}
+
+/* Everything before the iterations: frames, who stays, the coverage. */
+static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_stats *st,
+                   int threads, wpd_error *err)
+{
+    if (build_frames(in, f, &st->sharp_fixed, threads, err) < 0)
+        return -1;
+    if (in->surface)
+        mark_isolated(in, f, threads);
+    for (size_t o = 0; o < f->n; o++) {
+        st->volume_fixed += f->still[o] == STILL_VOLUME;
+        st->isolated_fixed += f->still[o] == STILL_ISOLATED;
+    }
+    g->spacing = (wpd_spacing_guard){NULL, NULL, f->n, f->cap, f->half, in->spacing,
+                                     STORE_MARGIN * in->spacing, STEP_MAX * in->spacing};
+    if (in->surface && wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx,
+                                       in->spacing, threads, err))
+        return -1;
+    return 0;
 }
 
 int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *err)
 {
     memset(stats, 0, sizeof *stats);
-    size_t n = in->n;
+    size_t n = in->n, all = in->n + in->nctx;
     if (n == 0 || in->iterations <= 0)
         return 0;
     int threads = in->threads > 0 ? in->threads : omp_get_max_threads();
     double t0 = omp_get_wtime();
     int k = in->k < 3 ? 3 : in->k > WPD_KNN_MAX ? WPD_KNN_MAX : in->k;
     frames f = {0};
-    double *next = malloc(3 * n * sizeof *next);
-    double *start = NULL;     /* positions before smoothing */
+    guards g = {0};
+    double *scratch = malloc(3 * all * sizeof *scratch), *next = scratch;
     int rc = -1;
-    if (!next || alloc_frames(&f, n, k) < 0) {
+    if (!scratch || alloc_frames(&f, in, k) < 0) {
         wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
         goto done;
     }
-    if (build_frames(in, &f, &stats->sharp_fixed, threads, err) < 0)
+    if (prepare(in, &f, &g, stats, threads, err))
         goto done;
+    memcpy(next + 3 * n, f.pos + 3 * n, 3 * in->nctx * sizeof *next);
     double t1 = omp_get_wtime();
     stats->normals_seconds = t1 - t0;
-
-    double total_move = 0;
-    double *prev = f.pos;
-    start = malloc(3 * n * sizeof *start);
-    if (!start) {
-        wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
-        goto done;
-    }
-    memcpy(start, f.pos, 3 * n * sizeof *start);
+    double total_move = 0, *prev = f.pos;
     for (int it = 0; it < in->iterations; it++) {
-        size_t open = 0;
-        /* Jacobi: every sample reads prev only, so threads cannot matter. */
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : open)
-        for (size_t o = 0; o < n; o++) {
-            if (f.fixed[o])
-                memcpy(next + 3 * o, prev + 3 * o, 3 * sizeof *next);
-            else
-                open += !smooth_one(in, &f, prev, o, next + 3 * o);
-        }
+        if (iterate(in, &f, &g, prev, next, threads, stats, err))
+            goto done;
         /* Fixed order of summation: the same total whatever the threads. */
         for (size_t o = 0; o < n; o++) {
             double dx = next[3 * o] - prev[3 * o], dy = next[3 * o + 1] - prev[3 * o + 1],
@@ -403,24 +598,19 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
         double *t = prev;
         prev = next;
         next = t;
-        stats->open_cells = open;
     }
-    if (in->surface)
-        stats->pulled_to_surface = clamp_to_surface(in->surface, prev, start, n, in->spacing,
-                                                    in->resolution, threads);
-    for (size_t o = 0; o < n; o++)
+    for (size_t o = 0; o < n; o++) {
         memcpy(in->xyz + 3 * (size_t)f.perm[o], prev + 3 * o, 3 * sizeof *in->xyz);
-    /* prev and next are f.pos and the scratch, in some order: free both. */
-    f.pos = prev;
-    free(next);
-    next = NULL;
+        stats->pulled_to_surface += f.pulled[o];
+    }
     stats->mean_move = in->spacing > 0 ? total_move / (double)n / in->spacing : 0;
     stats->smooth_seconds = omp_get_wtime() - t1;
     rc = 0;
 done:
-    free(next);
-    free(start);
+    free(scratch); /* prev and next were f.pos and the scratch, in some order */
     free_frames(&f);
+    wpd_grid_free(&g.grid);
+    wpd_cover_free(&g.cover);
     return rc;
 }
 

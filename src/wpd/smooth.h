@@ -12,12 +12,23 @@
  * the default is the Lloyd / CVT step the paper derives it from). A sample
  * whose cell is open (still touches the frame: it lies on a border of the
  * sampling) does not move, nor does a sharp-feature sample with a normal
- * (non-sharp) neighbour.
+ * (non-sharp) neighbour, nor a sample whose neighbourhood is no surface
+ * (vegetation, multiple returns: surface variation above 0.1) or whose
+ * input neighbours are sparser than the samples.
  *
  * The paper moves samples within their tangent planes only, so on a curved
  * surface they drift off it, a little more each iteration. Here, when the
  * input points are given, a moved sample is put back on the surface: onto
  * the PCA plane of the k input points nearest to its new position.
+ *
+ * Guarantees (smooth_guard.h): no two samples end closer than 0.75 x their
+ * Poisson distance (spacing; spacing/2 between two sharp-feature samples),
+ * if they started at least that far apart; with the input points given, no
+ * input point ends farther from the samples than max(spacing, its distance
+ * before smoothing); no sample ends farther than spacing from its start.
+ * A move that would break one is shortened, or dropped. Context samples
+ * do not move: a block smoothed after its neighbours keeps clear of their
+ * final positions.
  */
 #ifndef WPD_SMOOTH_H
 #define WPD_SMOOTH_H
@@ -50,7 +61,9 @@ typedef struct wpd_smooth_input {
     wpd_smooth_mode mode;
     int k;                   /* neighbours per sample (13), 3..WPD_KNN_MAX */
     int iterations;          /* 5 */
-    double spacing;          /* typical sample spacing (the radius): grid hint */
+    double spacing;          /* the Poisson radius r of the samples (> 0; 0: nothing
+                                moves): the guards' unit, no two samples closer to
+                                begin with */
     int threads;             /* <= 0: OpenMP default */
     double resolution[3];    /* the output stores coordinates as multiples of these
                                 per axis in the block frame (LAS scale); 0: exact.
@@ -60,6 +73,11 @@ typedef struct wpd_smooth_input {
 typedef struct wpd_smooth_stats {
     size_t open_cells;       /* samples kept fixed for an open cell (last iteration) */
     size_t sharp_fixed;      /* sharp-feature samples kept fixed */
+    size_t volume_fixed;     /* kept fixed: their neighbourhood is no surface */
+    size_t isolated_fixed;   /* kept fixed: no scanned surface around them */
+    size_t shortened;        /* moves shortened by the spacing or coverage guard
+                                (all iterations; smooth_guard.h) */
+    size_t refused;          /* moves the guards refused altogether */
     size_t pulled_to_surface; /* samples pulled back to within the input's local
                                  spacing of the input (see smooth.c) */
     double mean_move;        /* mean distance moved per sample over all iterations,

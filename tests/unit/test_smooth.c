@@ -1,0 +1,222 @@
+/* test_smooth.c - what smoothing must keep (wpd/smooth_guard.h): the
+ * Poisson spacing (no pair closer than 0.75 r), the cover of the input (no
+ * input point ends farther from the samples than max(r, before)), samples
+ * off a surface still, the same bytes for any thread count. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/grid.h"
+#include "core/hash.h"
+#include "core/knn.h"
+#include "harness.h"
+#include "wpd/poisson.h"
+#include "wpd/smooth.h"
+#include "wpd/smooth_guard.h"
+
+static double unit(uint64_t *state)
+{
+    *state = wpd_mix64(*state + 0x9e3779b97f4a7c15ULL);
+    return (double)(*state >> 11) * 0x1p-53;
+}
+
+/* An input cloud, its Poisson sample at radius r and a grid over it. */
+typedef struct cloud {
+    size_t n, m;
+    double *xyz;      /* [3n] input */
+    uint64_t *gid;
+    double *s;        /* [3m] samples */
+    wpd_grid surface;
+} cloud;
+
+static void cloud_free(cloud *c)
+{
+    free(c->xyz);
+    free(c->gid);
+    free(c->s);
+    wpd_grid_free(&c->surface);
+}
+
+/* Samples c's input at radius r; drops every drop-th sample (0: none), as
+ * the exact count does, which leaves holes the Voronoi moves rush into. */
+static void sample(cloud *c, double r, int drop)
+{
+    wpd_error err;
+    uint32_t *idx = malloc(c->n * sizeof *idx);
+    wpd_poisson_input in = {c->xyz, c->gid, NULL, NULL, c->n, NULL, 0, r, 3, 2};
+    long m = wpd_poisson_pass(&in, idx, &err);
+    c->s = malloc(3 * (size_t)(m > 0 ? m : 1) * sizeof *c->s);
+    c->m = 0;
+    for (long i = 0; i < m; i++)
+        if (!drop || i % drop != drop - 1)
+            memcpy(c->s + 3 * c->m++, c->xyz + 3 * (size_t)idx[i], 3 * sizeof *c->s);
+    free(idx);
+    wpd_grid_build(&c->surface, c->xyz, NULL, c->n, r / 2, 2, &err);
+}
+
+static cloud alloc_cloud(size_t cap)
+{
+    cloud c = {0};
+    c.xyz = malloc(3 * cap * sizeof *c.xyz);
+    c.gid = malloc(cap * sizeof *c.gid);
+    return c;
+}
+
+/* A jittered grid of spacing h on z = 0 (or on a cylinder of radius
+ * `bend` around the y axis when bend > 0), side x side points. */
+static cloud sheet(int side, double h, double bend, uint64_t seed)
+{
+    cloud c = alloc_cloud((size_t)side * side);
+    for (int y = 0; y < side; y++)
+        for (int x = 0; x < side; x++) {
+            double u = h * (x + 0.8 * (unit(&seed) - 0.5)), v = h * (y + 0.8 * (unit(&seed) - 0.5));
+            double *p = c.xyz + 3 * c.n;
+            p[0] = bend > 0 ? bend * sin(u / bend) : u;
+            p[1] = v;
+            p[2] = bend > 0 ? bend * cos(u / bend) : 0;
+            c.gid[c.n] = c.n;
+            c.n++;
+        }
+    return c;
+}
+
+static int smooth(cloud *c, double *t, double r, int threads, wpd_smooth_stats *st)
+{
+    wpd_error err;
+    memcpy(t, c->s, 3 * c->m * sizeof *t);
+    wpd_smooth_input in = {t, c->m, NULL, NULL, NULL, 0, &c->surface, 0, WPD_SMOOTH_CENTROID,
+                           13, 5, r, threads, {0, 0, 0}};
+    return wpd_smooth(&in, st, &err);
+}
+
+/* Smallest distance between two of the m points (brute force). */
+static double min_spacing(const double *p, size_t m)
+{
+    double best = INFINITY;
+    for (size_t i = 0; i < m; i++)
+        for (size_t j = i + 1; j < m; j++) {
+            double dx = p[3 * i] - p[3 * j], dy = p[3 * i + 1] - p[3 * j + 1],
+                   dz = p[3 * i + 2] - p[3 * j + 2];
+            best = fmin(best, dx * dx + dy * dy + dz * dz);
+        }
+    return sqrt(best);
+}
+
+/* Largest distance from an input point to its nearest sample. */
+static double cover_radius(const cloud *c, const double *p, size_t m)
+{
+    wpd_error err;
+    wpd_grid g = {0};
+    wpd_grid_build(&g, p, NULL, m, 1, 1, &err);
+    double worst = 0;
+    for (size_t i = 0; i < c->n; i++) {
+        uint32_t id;
+        double d2;
+        wpd_knn(&g, c->xyz + 3 * i, 1, WPD_NO_SELF, INFINITY, 0, &id, &d2);
+        worst = fmax(worst, sqrt(d2));
+    }
+    wpd_grid_free(&g);
+    return worst;
+}
+
+TEST(smooth_keeps_the_poisson_spacing_on_a_jittered_plane_and_a_cylinder)
+{
+    double r = 1;
+    for (int shape = 0; shape < 2; shape++) {
+        /* Every 4th sample dropped: holes a Voronoi step runs into. */
+        cloud c = sheet(90, 0.25, shape ? 4 : 0, 7 + (uint64_t)shape);
+        sample(&c, r, 4);
+        CHECK(c.m > 200 && min_spacing(c.s, c.m) >= r);
+        double *t = malloc(3 * c.m * sizeof *t), *t1 = malloc(3 * c.m * sizeof *t1);
+        wpd_smooth_stats st, st1;
+        CHECK(smooth(&c, t, r, 2, &st) == 0 && smooth(&c, t1, r, 1, &st1) == 0);
+        double d = min_spacing(t, c.m);
+        CHECK_MSG(d >= WPD_SMOOTH_KEEP * r, "shape %d: two samples %.3f r apart", shape, d / r);
+        CHECK_MSG(memcmp(t, t1, 3 * c.m * sizeof *t) == 0, "shape %d: threads changed the result",
+                  shape);
+        /* It still smooths: most samples moved, some moves were cut. */
+        size_t moved = 0;
+        for (size_t i = 0; i < 3 * c.m; i += 3)
+            moved += memcmp(t + i, c.s + i, 3 * sizeof *t) != 0;
+        CHECK_MSG(moved > c.m / 2 && st.shortened > 0, "shape %d: %zu of %zu moved, %zu cut",
+                  shape, moved, c.m, st.shortened);
+        free(t);
+        free(t1);
+        cloud_free(&c);
+    }
+}
+
+/* Adds a pole of radius rad and height h standing on the sheet at (11, 11):
+ * a thin upright feature whose samples a tangent-plane move would carry
+ * off it, onto the ground. */
+static void add_pole(cloud *c, double rad, double h, uint64_t seed)
+{
+    enum { POLE = 3000 };
+    c->xyz = realloc(c->xyz, 3 * (c->n + POLE) * sizeof *c->xyz);
+    c->gid = realloc(c->gid, (c->n + POLE) * sizeof *c->gid);
+    for (int i = 0; i < POLE; i++) {
+        double a = 2 * M_PI * unit(&seed), *q = c->xyz + 3 * c->n;
+        q[0] = 11 + rad * cos(a);
+        q[1] = 11 + rad * sin(a);
+        q[2] = h * unit(&seed);
+        c->gid[c->n] = c->n;
+        c->n++;
+    }
+}
+
+TEST(smooth_opens_no_hole_in_the_input)
+{
+    /* The input's distance to the nearest sample may not grow past
+     * max(r, what it was) anywhere: on a plane with samples dropped and on
+     * a plane with a pole (without the guard, the pole's samples slid off
+     * it: the top of the taller pole ended 1.077 r from the nearest sample). */
+    double r = 1;
+    for (int shape = 0; shape < 3; shape++) {
+        cloud c = sheet(90, 0.25, 0, 15 + (uint64_t)shape);
+        if (shape)
+            add_pole(&c, 0.4, shape == 1 ? 1.5 : 2.5, 103 + (uint64_t)shape);
+        sample(&c, r, shape ? 0 : 3);
+        double before = cover_radius(&c, c.s, c.m);
+        double *t = malloc(3 * c.m * sizeof *t);
+        wpd_smooth_stats st;
+        CHECK(smooth(&c, t, r, 2, &st) == 0);
+        double after = cover_radius(&c, t, c.m);
+        CHECK_MSG(after <= fmax(r, before) * (1 + 1e-6),
+                  "shape %d: hole %.4f r after, %.4f r before", shape, after / r, before / r);
+        free(t);
+        cloud_free(&c);
+    }
+}
+
+TEST(smooth_leaves_a_volumetric_blob_still)
+{
+    /* Points filling a cube (vegetation, multiple returns): no tangent
+     * plane, so no sample moves - but for a few on the cube's faces, where
+     * the neighbourhood is a half ball. */
+    uint64_t seed = 5;
+    cloud c = alloc_cloud(40000);
+    for (c.n = 0; c.n < 40000; c.n++) {
+        for (int a = 0; a < 3; a++)
+            c.xyz[3 * c.n + a] = 8 * unit(&seed);
+        c.gid[c.n] = c.n;
+    }
+    sample(&c, 1, 0);
+    double *t = malloc(3 * c.m * sizeof *t);
+    wpd_smooth_stats st;
+    CHECK(smooth(&c, t, 1, 2, &st) == 0);
+    size_t moved = 0, inside = 0;
+    for (size_t i = 0; i < 3 * c.m; i += 3) {
+        int in = 1;
+        for (int a = 0; a < 3; a++)
+            in &= c.s[i + a] > 2 && c.s[i + a] < 6;
+        int m = memcmp(t + i, c.s + i, 3 * sizeof *t) != 0;
+        moved += m;
+        inside += m && in;
+    }
+    CHECK_MSG(c.m > 300 && inside == 0 && moved <= c.m / 50,
+              "%zu of %zu moved (%zu inside), %zu kept still", moved, c.m, inside,
+              st.volume_fixed);
+    free(t);
+    cloud_free(&c);
+}
