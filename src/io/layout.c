@@ -194,16 +194,6 @@ static int pick_pdrf(const wpd_schema *in)
     return has_rgb ? 7 : 6;
 }
 
-/* LAS data_type code of an extra-bytes field of type t (LAS 1.4 table 24). */
-static uint8_t extra_bytes_type(wpd_type t)
-{
-    static const uint8_t code[] = {
-        [WPD_U8] = 1, [WPD_I8] = 2, [WPD_U16] = 3, [WPD_I16] = 4, [WPD_U32] = 5,
-        [WPD_I32] = 6, [WPD_U64] = 7, [WPD_I64] = 8, [WPD_F32] = 9, [WPD_F64] = 10,
-    };
-    return code[t];
-}
-
 /* Colour depth change: 8-bit and 0..1 float colours become 16-bit. */
 static double colour_multiplier(const char *las_name, wpd_type src)
 {
@@ -216,13 +206,12 @@ static double colour_multiplier(const char *las_name, wpd_type src)
     return src == WPD_F32 || src == WPD_F64 ? 65535.0 : 1.0;
 }
 
-/* Appends one 192-byte Extra Bytes descriptor for dimension d to buf. */
+/* One 192-byte Extra Bytes descriptor for dimension d. */
 static void put_descriptor(uint8_t *desc, const wpd_dim *d)
 {
-    memset(desc, 0, 192);
-    desc[2] = extra_bytes_type(d->type);
-    snprintf((char *)desc + 4, 32, "%s", d->name);
-    snprintf((char *)desc + 160, 32, "%s (from PLY)", d->name);
+    char description[64];
+    snprintf(description, sizeof description, "%s (from PLY)", d->name);
+    wpd_las_put_descriptor(desc, d->type, d->name, description);
 }
 
 static int add_extra_bytes_vlr(wpd_las_info *las, const wpd_schema *in, const int *extra,
