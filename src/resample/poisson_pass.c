@@ -127,8 +127,7 @@ static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, 
     if (wpd_grid_build_knn(&surface, d->xyz, NULL, d->n, run->p->k, run->surface_dk, threads,
                            err))
         return -1;
-    wpd_detect_sharp_capped(&surface, 0, d->n, run->p->k, run->res->radius_estimate,
-                            run->p->sharp_threshold, *edge, threads);
+    wpd_detect_sharp_capped(&surface, 0, d->n, run->res->radius_estimate, *edge, threads);
     wpd_grid_free(&surface);
     return 0;
 }
@@ -602,24 +601,32 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
     return rc;
 }
 
-/* n >= the input: every own point is kept as it is. */
+/* n >= the input: every own point is kept as it is, with its sharp label
+ * under --sharp (own points see their whole neighbourhood in the halo). */
 static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
-    (void)threads, (void)arg;
+    (void)arg;
     wpd_tile_data d;
     if (wpd_tiles_read(&run->tiles, t, &d, err))
         return -1;
     wpd_tile_samples *s = &run->store[t];
-    int rc = 0;
-    if (wpd_samples_alloc(s, d.n, 0))
+    uint8_t *edge = NULL;
+    int rc = run->p->sharp ? label_sharp(run, &d, threads, &edge, err) : 0;
+    if (rc == 0 && wpd_samples_alloc(s, d.n, edge != NULL))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    uint64_t sharp = 0;
     for (size_t i = 0; rc == 0 && i < d.n; i++) {
         if (d.halo[i])
             continue;
         s->gid[s->n] = d.gid[i];
         memcpy(s->xyz + 3 * s->n, d.xyz + 3 * i, 3 * sizeof *s->xyz);
+        if (edge)
+            sharp += s->edge[s->n] = edge[i];
         s->n++;
     }
+#pragma omp atomic
+    run->res->sharp_points += sharp;
+    free(edge);
     wpd_tiles_release(&run->tiles, &d);
     return rc;
 }

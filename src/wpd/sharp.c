@@ -1,4 +1,5 @@
-/* sharp.c - surface-variation edge detector. */
+/* sharp.c - the sharp-feature detector (sharp.h): bounded, ordered
+ * neighbourhoods, the local spacing, and the crease test on each point. */
 #include "wpd/sharp.h"
 
 #include <math.h>
@@ -6,33 +7,7 @@
 #include <string.h>
 
 #include "core/knn.h"
-#include "core/pca.h"
-
-void wpd_detect_sharp(const wpd_grid *surface, size_t n, int k, double threshold,
-                      uint8_t *edge, int threads)
-{
-    if (threads <= 0)
-        threads = omp_get_max_threads();
-    k = wpd_knn_clamp_k(k);
-    /* Visit slots (cell order, cache friendly) and write by source index. */
-    size_t slots = surface->n;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
-    for (size_t s = 0; s < slots; s++) {
-        uint32_t id = surface->id[s];
-        if (id >= n)
-            continue;
-        uint32_t near[WPD_KNN_MAX];
-        /* k nearest including the point itself (distance 0 comes first). */
-        int got = wpd_knn_slots(surface, surface->xyz + 3 * s, k, WPD_NO_SELF, INFINITY, 0,
-                                near, NULL);
-        double pts[3 * WPD_KNN_MAX];
-        for (int j = 0; j < got; j++)
-            memcpy(pts + 3 * j, surface->xyz + 3 * (size_t)near[j], 3 * sizeof(double));
-        wpd_plane pl;
-        wpd_plane_fit(pts, NULL, got, &pl);
-        edge[id] = got >= 3 && pl.variation > threshold;
-    }
-}
+#include "wpd/crease.h"
 
 /* ---- Bounded neighbourhoods ---------------------------------------------- */
 
@@ -127,12 +102,34 @@ static int capped_knn(const wpd_grid *g, const double q[3], int k, double cap, c
     }
 }
 
-void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, int k, double cap,
-                             double threshold, uint8_t *edge, int threads)
+/* The label of the point at q: its neighbourhood (the nearest points
+ * closer than cap), the spacing from it, the crease test on the nearest
+ * of them within WPD_SHARP_REACH spacings. */
+static int label_point(const wpd_grid *g, const double q[3], double cap, wpd_crease_verdict *why)
+{
+    capped_best h;
+    int got = capped_knn(g, q, WPD_KNN_MAX, cap, &h);
+    if (got <= WPD_SHARP_SPACING_K) {
+        *why = WPD_CREASE_SMALL_FACE;
+        return 0;
+    }
+    /* k points within d_k of a point of a surface: a disc of k / (pi d_k^2)
+     * points per unit area; the spacing is one over its square root. */
+    double spacing = sqrt(h.d2[WPD_SHARP_SPACING_K] * M_PI / WPD_SHARP_SPACING_K);
+    double reach2 = WPD_SHARP_REACH * WPD_SHARP_REACH * spacing * spacing;
+    double pts[3 * WPD_KNN_MAX];
+    int m = 0;
+    for (; m < got && h.d2[m] <= reach2; m++)
+        memcpy(pts + 3 * m, h.p[m], 3 * sizeof(double));
+    *why = wpd_crease_test(pts, m, q, spacing);
+    return *why == WPD_CREASE_ON;
+}
+
+void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, double cap,
+                             uint8_t *edge, int threads)
 {
     if (threads <= 0)
         threads = omp_get_max_threads();
-    k = wpd_knn_clamp_k(k);
     size_t slots = surface->n;
     /* Each label is computed on its own from its neighbourhood: any
      * schedule gives the same labels. */
@@ -141,17 +138,20 @@ void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, 
         uint32_t id = surface->id[s];
         if (id < begin || id >= end)
             continue;
-        capped_best h;
-        int got = capped_knn(surface, surface->xyz + 3 * s, k, cap, &h);
-        if (got < WPD_SHARP_MIN_POINTS) {
-            edge[id] = 0;
-            continue;
-        }
-        double pts[3 * WPD_KNN_MAX];
-        for (int j = 0; j < got; j++)
-            memcpy(pts + 3 * j, h.p[j], 3 * sizeof(double));
-        wpd_plane pl;
-        wpd_plane_fit(pts, NULL, got, &pl);
-        edge[id] = pl.variation > threshold;
+        wpd_crease_verdict why;
+        edge[id] = (uint8_t)label_point(surface, surface->xyz + 3 * s, cap, &why);
+    }
+}
+
+void wpd_sharp_verdicts(const wpd_grid *surface, double cap, uint8_t *verdict, int threads)
+{
+    if (threads <= 0)
+        threads = omp_get_max_threads();
+    size_t slots = surface->n;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
+    for (size_t s = 0; s < slots; s++) {
+        wpd_crease_verdict why;
+        label_point(surface, surface->xyz + 3 * s, cap, &why);
+        verdict[surface->id[s]] = (uint8_t)why;
     }
 }
