@@ -130,6 +130,8 @@ static void tally(const points *p, const uint8_t *edge, const uint8_t *verdict,
     s->points = p->n;
     for (size_t i = 0; i < p->n; i++) {
         s->labelled += edge[i];
+        if (verdict[i] < 16)
+            s->by_verdict[verdict[i]]++;
         if (!p->truth || !p->truth[i])
             continue;
         s->truth++;
@@ -141,23 +143,24 @@ static void tally(const points *p, const uint8_t *edge, const uint8_t *verdict,
     }
 }
 
-/* Labels the points; with a truth, the verdicts too. edge gets the labels. */
+/* Labels the points (edge) from the crease test's verdicts, which are
+ * tallied too. */
 static int label(const points *p, double cap, int threads, uint8_t *edge, wpd_edges_summary *s,
                  wpd_error *err)
 {
     wpd_grid g = {0};
-    uint8_t *verdict = p->truth ? malloc(p->n) : NULL;
-    if (p->truth && !verdict)
+    uint8_t *verdict = malloc(p->n);
+    if (!verdict)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu verdicts", p->n);
     if (wpd_grid_build(&g, p->xyz, NULL, p->n, grid_cell(p), threads, err)) {
         free(verdict);
         return -1;
     }
     double t = omp_get_wtime();
-    wpd_detect_sharp_capped(&g, 0, p->n, cap, edge, threads);
+    wpd_sharp_verdicts(&g, cap, verdict, threads);
     s->seconds = omp_get_wtime() - t;
-    if (verdict)
-        wpd_sharp_verdicts(&g, cap, verdict, threads);
+    for (size_t i = 0; i < p->n; i++)
+        edge[i] = verdict[i] == WPD_CREASE_ON;
     wpd_grid_free(&g);
     tally(p, edge, verdict, s);
     free(verdict);
@@ -177,6 +180,10 @@ static void print_summary(const wpd_edges_summary *s, const char *truth)
     printf("points %llu, labelled %llu (%.3f %%), detector %.2f s\n",
            (unsigned long long)s->points, (unsigned long long)s->labelled,
            100.0 * (double)s->labelled / (double)(s->points ? s->points : 1), s->seconds);
+    printf("verdicts:");
+    for (int v = 0; v < WPD_CREASE_VERDICTS; v++)
+        printf(" %s %llu%s", verdict_name(v), (unsigned long long)s->by_verdict[v],
+               v + 1 < WPD_CREASE_VERDICTS ? "," : "\n");
     if (!truth)
         return;
     double prec = s->labelled ? (double)s->true_positive / (double)s->labelled : 0;

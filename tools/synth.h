@@ -23,8 +23,9 @@
  *    uchar number_of_returns, uchar classification, ushort point_source_id,
  *    double gps_time, uchar red green blue; two "wpd synth" comments.
  *  - With edge_truth (`--edge-truth`), one more field, edge_truth: not 0
- *    for a point within half the point spacing (0.144 m) of a building
- *    crease of 30 degrees or more, the kind of the nearest one: 1 roof
+ *    for a point within half the point spacing (the survey's pulse spacing,
+ *    0.35 to 0.38 m) of a building crease of 30 degrees or more, the kind
+ *    of the nearest one: 1 roof
  *    ridge, 2 wall top (eaves, gable tops, flat roof edges), 3 wall
  *    corner, 4 wall foot (synth_creases.h); 0 elsewhere, and always on
  *    vegetation and noise.

@@ -116,9 +116,9 @@ static void walls(const scene *sc, const building *b, const double p[3], nearest
     }
 }
 
-int synth_on_crease(const scene *sc, const building *b, double x, double y, double z)
+int synth_on_crease(const scene *sc, const building *b, double x, double y, double z,
+                    double band)
 {
-    const double band = SYNTH_CREASE_BAND;
     double p[3] = {x, y, z};
     double near_ridge = b->roof == ROOF_RIDGE_X ? fabs(y - (b->y0 + b->y1) / 2)
                         : b->roof == ROOF_RIDGE_Y ? fabs(x - (b->x0 + b->x1) / 2)

@@ -8,10 +8,13 @@
  * wall meet: 90 degrees, or 90 - atan(slope) >= 49 degrees under a sloped
  * roof), the four vertical wall corners (90) and the wall feet, where each
  * wall meets the terrain (90, give or take the terrain's slope of a few
- * percent). A point is on a crease when it lies within SYNTH_CREASE_BAND
- * (half the nominal point spacing, 1 / sqrt(12 points/m2) = 0.289 m) of one,
- * measured in 3D from its noiseless position (before the ranging noise
- * and the 0.01 m grid). The creases are the scene's geometry, whether or
+ * percent). A point is on a crease when it lies within a band of half the
+ * point spacing of one, measured in 3D from its noiseless position (before
+ * the ranging noise and the 0.01 m grid). The point spacing: the survey's
+ * pulse spacing, the distance between neighbouring pulses on the ground
+ * along and across track in one strip (flight.line_spacing, 0.35 to 0.38
+ * m; the 12 points/m2 of the scene count the strips' overlaps and the
+ * multiple returns of the trees too). The creases are the scene's geometry, whether or
  * not the scanner sees both sides: the walls facing north and south are
  * parallel to every pulse (the mirror sweeps across track only) and get no
  * points, so their creases show in the cloud as the border of a roof or
@@ -28,8 +31,6 @@
 #include "synth_scene.h"
 
 #define SYNTH_CREASE_MIN_DEGREES 30.0
-#define SYNTH_POINT_SPACING 0.28867513459481287   /* 1 / sqrt(12): metres */
-#define SYNTH_CREASE_BAND (0.5 * SYNTH_POINT_SPACING)
 
 /* Kinds of crease, as written in the edge_truth field (0: none). */
 enum synth_crease {
@@ -42,7 +43,8 @@ enum synth_crease {
 
 /* The kind of the crease of building b nearest to the surface point
  * (x, y, z) (local metres) of a roof, a wall or the ground of b's lot when
- * it lies within SYNTH_CREASE_BAND, else CREASE_NONE. */
-int synth_on_crease(const scene *sc, const building *b, double x, double y, double z);
+ * it lies within band (half the point spacing), else CREASE_NONE. */
+int synth_on_crease(const scene *sc, const building *b, double x, double y, double z,
+                    double band);
 
 #endif

@@ -114,7 +114,7 @@ static void ply_schema(wpd_schema *s)
 
 /* The ground truth of sharp features as the records' last byte. */
 #define TRUTH_NAME "edge_truth"
-#define TRUTH_DESCRIPTION "crease kind 1-4 within 0.144 m"
+#define TRUTH_DESCRIPTION "crease kind, half pulse spacing"
 
 static void add_truth_field(emitter *e)
 {

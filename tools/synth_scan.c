@@ -24,7 +24,8 @@ void synth_scan_init(scan *s, const scene *sc, const flight *fl, emitter *em, ui
 {
     memset(s, 0, sizeof *s);
     s->sc = sc, s->fl = fl, s->em = em, s->time = GPS_START;
-    synth_tracer_init(&s->tr, sc, creases);
+    /* Half the pulse spacing: the band of the ground truth (synth_creases.h). */
+    synth_tracer_init(&s->tr, sc, creases ? 0.5 * fl->line_spacing : 0);
     rng_seed(&s->g, seed);
 }
 

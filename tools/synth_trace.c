@@ -135,7 +135,9 @@ static hit trace_solid(tracer *tr, const ray *r)
         best = h, on = b2;
     /* The ground near a foot lies on the lot of its building (lots keep
      * 3 m around a building), so b is the one building it can be near. */
-    best.crease = tr->creases && on ? synth_on_crease(sc, on, best.x, r->y, best.z) : 0;
+    best.crease = tr->crease_band > 0 && on
+                      ? synth_on_crease(sc, on, best.x, r->y, best.z, tr->crease_band)
+                      : 0;
     return best;
 }
 
@@ -193,11 +195,11 @@ static int trace_echoes(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS])
     return 1;
 }
 
-void synth_tracer_init(tracer *tr, const scene *sc, int creases)
+void synth_tracer_init(tracer *tr, const scene *sc, double crease_band)
 {
     memset(tr, 0, sizeof *tr);
     tr->sc = sc;
-    tr->creases = creases;
+    tr->crease_band = crease_band;
     tr->ground_guess = GROUND_LEVEL;
 }
 

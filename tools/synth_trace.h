@@ -28,12 +28,13 @@ typedef struct tracer {
     building lots[2];            /* lot under the ground hit, lot at roof level */
     tree trees[3];               /* two kerb directions, park */
     double ground_guess;         /* ground height of the previous pulse */
-    int creases;                 /* 1: mark the echoes on creases */
+    double crease_band;          /* > 0: mark the echoes within it of a crease */
 } tracer;
 
 /* A tracer for scene sc (which must outlive it), with empty caches;
- * creases: 1 to set each echo's crease flag (else it stays 0). */
-void synth_tracer_init(tracer *tr, const scene *sc, int creases);
+ * crease_band > 0: set each echo's crease kind for that band (half the
+ * point spacing; synth_creases.h), else it stays 0. */
+void synth_tracer_init(tracer *tr, const scene *sc, double crease_band);
 
 /* Traces ray r, drawing from g; returns the number of echoes (1 ..
  * MAX_RETURNS, written to out in return order), or 0 when one of them

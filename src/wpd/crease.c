@@ -14,7 +14,12 @@
 
 #include "core/pca.h"
 
-enum { MAX_POINTS = 64, MAX_ROUNDS = 8 };
+enum { MAX_POINTS = 64, MAX_ROUNDS = 6 };
+/* A first split whose faces both lie farther than this many flatness
+ * tolerances squared from their planes is not refined (split_along). */
+#define HOPELESS 16.0
+/* cos(WPD_CREASE_MIN_DEGREES), checked against it in the unit tests. */
+#define COS_MIN_DEGREES 0.86602540378443865
 
 /* A plane fitted to some of the points: centroid, unit normal, and the
  * eigenvalues of their covariance (ascending). */
@@ -35,37 +40,53 @@ static void cross(const double a[3], const double b[3], double out[3])
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-/* Fits f to the points whose side equals `which` (all with which < 0,
- * side then unused);
- * evecs gets the principal axes (ascending). */
-static void fit(const double *pts, int m, const signed char *side, int which, face *f,
-                double evecs[3][3])
+/* Sums of the points of one face: count, coordinates, their products. */
+typedef struct moments {
+    int n;
+    double s[3], ss[6];
+} moments;
+
+static inline void add_point(moments *mo, const double *q)
 {
-    double c[3] = {0, 0, 0};
-    int n = 0;
-    for (int i = 0; i < m; i++)
-        if (which < 0 || side[i] == which) {
-            for (int k = 0; k < 3; k++)
-                c[k] += pts[3 * i + k];
-            n++;
-        }
-    f->count = n;
-    memset(f->ev, 0, sizeof f->ev);
-    if (n == 0)
-        return;
+    mo->n++;
     for (int k = 0; k < 3; k++)
-        f->c[k] = c[k] / n;
-    double a[6] = {0, 0, 0, 0, 0, 0};
+        mo->s[k] += q[k];
+    mo->ss[0] += q[0] * q[0], mo->ss[1] += q[0] * q[1], mo->ss[2] += q[0] * q[2];
+    mo->ss[3] += q[1] * q[1], mo->ss[4] += q[1] * q[2], mo->ss[5] += q[2] * q[2];
+}
+
+/* The covariance of the moments' points (the points lie within a few
+ * spacings of the origin, so raw moments lose nothing that matters). */
+static void covariance(const moments *mo, double c[3], double a[6])
+{
+    for (int k = 0; k < 3; k++)
+        c[k] = mo->s[k] / mo->n;
+    a[0] = mo->ss[0] / mo->n - c[0] * c[0], a[1] = mo->ss[1] / mo->n - c[0] * c[1];
+    a[2] = mo->ss[2] / mo->n - c[0] * c[2], a[3] = mo->ss[3] / mo->n - c[1] * c[1];
+    a[4] = mo->ss[4] / mo->n - c[1] * c[2], a[5] = mo->ss[5] / mo->n - c[2] * c[2];
+}
+
+/* The plane of the moments' points; its normal only. */
+static void fit_face(const moments *mo, face *f)
+{
+    double a[6];
+    f->count = mo->n;
+    memset(f->ev, 0, sizeof f->ev);
+    if (mo->n == 0)
+        return;
+    covariance(mo, f->c, a);
+    wpd_sym3_smallest(a, f->ev, f->n);
+}
+
+/* Fits both faces to the points by their sides. */
+static void fit_faces(const double *q, int m, const signed char *side, face f[2])
+{
+    moments mo[2];
+    memset(mo, 0, sizeof mo);
     for (int i = 0; i < m; i++)
-        if (which < 0 || side[i] == which) {
-            double d[3] = {pts[3 * i] - f->c[0], pts[3 * i + 1] - f->c[1], pts[3 * i + 2] - f->c[2]};
-            a[0] += d[0] * d[0], a[1] += d[0] * d[1], a[2] += d[0] * d[2];
-            a[3] += d[1] * d[1], a[4] += d[1] * d[2], a[5] += d[2] * d[2];
-        }
-    for (int k = 0; k < 6; k++)
-        a[k] /= n;
-    wpd_sym3_eigen(a, f->ev, evecs);
-    memcpy(f->n, evecs[0], sizeof f->n);
+        add_point(&mo[side[i]], q + 3 * i);
+    fit_face(&mo[0], &f[0]);
+    fit_face(&mo[1], &f[1]);
 }
 
 static double plane_dist(const face *f, const double *q)
@@ -76,23 +97,26 @@ static double plane_dist(const face *f, const double *q)
 
 /* Splits the points between two faces: first by the side of a principal
  * axis through the centroid, then each point to the nearer plane until no
- * point moves. Returns 0, or -1 when a face runs out of points. */
-static int split_along(const double *pts, int m, const face *all, const double axis[3],
-                       signed char *side, face f[2])
+ * point moves. Returns 0, or -1 when a face runs out of points or when
+ * the first split leaves both faces rougher than `hopeless` (a mean
+ * squared distance to their planes: a rough surface, not two planes; the
+ * moves only refine a split that is nearly right). */
+static int split_along(const double *q, int m, const double c[3], const double axis[3],
+                       double hopeless, signed char *side, face f[2])
 {
     for (int i = 0; i < m; i++) {
-        double d[3] = {pts[3 * i] - all->c[0], pts[3 * i + 1] - all->c[1], pts[3 * i + 2] - all->c[2]};
+        double d[3] = {q[3 * i] - c[0], q[3 * i + 1] - c[1], q[3 * i + 2] - c[2]};
         side[i] = dot(d, axis) > 0;
     }
-    double ev[3][3];
     for (int round = 0; round <= MAX_ROUNDS; round++) {
-        fit(pts, m, side, 0, &f[0], ev);
-        fit(pts, m, side, 1, &f[1], ev);
+        fit_faces(q, m, side, f);
         if (f[0].count < 3 || f[1].count < 3)
+            return -1;
+        if (round == 0 && f[0].ev[0] > hopeless && f[1].ev[0] > hopeless)
             return -1;
         int moved = 0;
         for (int i = 0; round < MAX_ROUNDS && i < m; i++) {
-            signed char s = plane_dist(&f[1], pts + 3 * i) < plane_dist(&f[0], pts + 3 * i);
+            signed char s = plane_dist(&f[1], q + 3 * i) < plane_dist(&f[0], q + 3 * i);
             moved += s != side[i];
             side[i] = s;
         }
@@ -106,13 +130,13 @@ static int split_along(const double *pts, int m, const face *all, const double a
  * largest principal axis (the smaller summed squared distance to the
  * planes). On a crease seen in a ball the middle axis runs across it; on
  * a patch longer than wide, the largest does. */
-static int split(const double *pts, int m, const face *all, double ax[3][3], signed char *side,
-                 face f[2])
+static int split(const double *q, int m, const double c[3], double ax[3][3], double hopeless,
+                 signed char *side, face f[2])
 {
     signed char other[MAX_POINTS];
     face g[2];
-    int a = split_along(pts, m, all, ax[1], side, f);
-    int b = split_along(pts, m, all, ax[2], other, g);
+    int a = split_along(q, m, c, ax[1], hopeless, side, f);
+    int b = split_along(q, m, c, ax[2], hopeless, other, g);
     if (b == 0 && (a != 0 || g[0].ev[0] * g[0].count + g[1].ev[0] * g[1].count <
                                  f[0].ev[0] * f[0].count + f[1].ev[0] * f[1].count)) {
         memcpy(side, other, (size_t)m);
@@ -195,24 +219,35 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
         m = MAX_POINTS;
     if (m < 2 * WPD_CREASE_MIN_FACE)
         return WPD_CREASE_SMALL_FACE;
-    signed char side[MAX_POINTS];
-    face all;
-    double ax[3][3];
-    fit(pts, m, NULL, -1, &all, ax);
-    double total = all.ev[0] + all.ev[1] + all.ev[2];
-    if (!(total > 0) || all.ev[0] < WPD_CREASE_MIN_VARIATION * total)
+    /* Coordinates relative to p: small numbers, p at the origin. */
+    double q[3 * MAX_POINTS];
+    moments all = {0, {0, 0, 0}, {0, 0, 0, 0, 0, 0}};
+    for (int i = 0; i < m; i++) {
+        for (int k = 0; k < 3; k++)
+            q[3 * i + k] = pts[3 * i + k] - p[k];
+        add_point(&all, q + 3 * i);
+    }
+    double c[3], a[6], ev[3], ax[3][3];
+    covariance(&all, c, a);
+    wpd_sym3_eigen(a, ev, ax);
+    double total = ev[0] + ev[1] + ev[2];
+    if (!(total > 0) || ev[0] < WPD_CREASE_MIN_VARIATION * total)
         return WPD_CREASE_FLAT;
-    face f[2];
-    if (split(pts, m, &all, ax, side, f) ||
-        f[0].count < WPD_CREASE_MIN_FACE || f[1].count < WPD_CREASE_MIN_FACE)
-        return WPD_CREASE_SMALL_FACE;
-    double tol = WPD_CREASE_FLATNESS * spacing;
-    if (!planar(pts, m, side, f, tol))
+    if (ev[0] > WPD_CREASE_MAX_VARIATION * total)
         return WPD_CREASE_ROUGH;
-    if (fabs(dot(f[0].n, f[1].n)) > cos(WPD_CREASE_MIN_DEGREES * M_PI / 180))
+    signed char side[MAX_POINTS];
+    face f[2];
+    double tol = WPD_CREASE_FLATNESS * spacing;
+    if (split(q, m, c, ax, HOPELESS * tol * tol, side, f))
+        return WPD_CREASE_ROUGH;
+    if (f[0].count < WPD_CREASE_MIN_FACE || f[1].count < WPD_CREASE_MIN_FACE)
+        return WPD_CREASE_SMALL_FACE;
+    if (!planar(q, m, side, f, tol))
+        return WPD_CREASE_ROUGH;
+    if (fabs(dot(f[0].n, f[1].n)) > COS_MIN_DEGREES)
         return WPD_CREASE_SHALLOW;
-    double dir[3], at[3];
-    if (meet(f, p, dir, at) || !folded(pts, m, side, f, dir, at, tol))
+    double dir[3], at[3], origin[3] = {0, 0, 0};
+    if (meet(f, origin, dir, at) || !folded(q, m, side, f, dir, at, tol))
         return WPD_CREASE_CROSSING;
-    return line_dist(p, dir, at) <= 0.5 * spacing ? WPD_CREASE_ON : WPD_CREASE_NEAR;
+    return line_dist(origin, dir, at) <= 0.5 * spacing ? WPD_CREASE_ON : WPD_CREASE_NEAR;
 }
