@@ -18,8 +18,6 @@ enum { MAX_POINTS = 64, MAX_ROUNDS = 6 };
 /* A first split whose faces both lie farther than this many flatness
  * tolerances squared from their planes is not refined (split_along). */
 #define HOPELESS 16.0
-/* cos(WPD_CREASE_MIN_DEGREES), checked against it in the unit tests. */
-#define COS_MIN_DEGREES 0.86602540378443865
 
 /* A plane fitted to some of the points: centroid, unit normal, and the
  * eigenvalues of their covariance (ascending). */
@@ -244,7 +242,7 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
         return WPD_CREASE_SMALL_FACE;
     if (!planar(q, m, side, f, tol))
         return WPD_CREASE_ROUGH;
-    if (fabs(dot(f[0].n, f[1].n)) > COS_MIN_DEGREES)
+    if (fabs(dot(f[0].n, f[1].n)) > WPD_CREASE_COS_MIN)
         return WPD_CREASE_SHALLOW;
     double dir[3], at[3], origin[3] = {0, 0, 0};
     if (meet(f, origin, dir, at) || !folded(q, m, side, f, dir, at, tol))

@@ -88,6 +88,7 @@ TEST(sharp_labels_the_creases_of_a_folded_surface_and_nothing_else)
 
 TEST(sharp_crease_test_rejects_volumes_and_planes)
 {
+    CHECK(fabs(cos(WPD_CREASE_MIN_DEGREES * M_PI / 180) - WPD_CREASE_COS_MIN) < 1e-15);
     uint64_t st = 9;
     double pts[3 * 64], p[3] = {0, 0, 0};
     /* A blob (a tree crown, multiple returns). */
