@@ -96,7 +96,7 @@ static int read_inputs(panel *pn, int n, const layout *lay, int threads, view *v
             rc = preview_scan_pass(&pn[i], &b[i], err);
     }
     if (!rc) {
-        col->by_rgb = 1;
+        col->by_rgb = !col->by_label;
         for (int i = 0; i < n; i++)
             col->by_rgb &= pn[i].rgb_denom > 0;
         for (int a = 0; a < 3; a++) {
@@ -157,7 +157,7 @@ static int render(panel *pn, int n, const wpd_preview_options *opt, wpd_preview_
     make_layout(&lay, opt->width, opt->height, n);
     view v;
     memset(&v, 0, sizeof v);
-    colouring col = {0, 0, 1};
+    colouring col = {0, 0, 1, opt->label != NULL};
     if (read_inputs(pn, n, &lay, opt->threads, &v, &col, sum, err))
         return -1;
     img->width = opt->width;
@@ -175,6 +175,8 @@ int wpd_preview_render(const char *const *paths, int n, const wpd_preview_option
     if (check_size(opt, n, err))
         return -1;
     sum->panels = n;
+    if (opt->label)
+        snprintf(sum->label, sizeof sum->label, "%s", opt->label);
     sum->width = opt->width;
     sum->height = opt->height;
     panel pn[2];
@@ -182,6 +184,7 @@ int wpd_preview_render(const char *const *paths, int n, const wpd_preview_option
     int rc = 0;
     for (int i = 0; i < n && !rc; i++) {
         pn[i].path = paths[i];
+        pn[i].opt = opt;
         if (!(pn[i].cloud = wpd_cloud_open(&paths[i], 1, err)))
             rc = -1;
         else

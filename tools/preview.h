@@ -18,6 +18,12 @@
  * stay sharp and sparse ones show few holes. A plane-free eye-dome shading
  * darkens pixels that lie behind the midpoint of their neighbours (a
  * plane, however tilted, is not shaded), which outlines buildings and trees.
+ * Label (--label DIM): points whose DIM is not zero are drawn red, the
+ * others grey by height (the viridis ramp's positions, in grey), e.g. the
+ * edge label of `wpd resample --edge-label`; a file without DIM is an
+ * error. Crop (--crop X0,Y0,X1,Y1): only the points with X0 <= x < X1 and
+ * Y0 <= y < Y1 (absolute coordinates) are read into the picture, its
+ * bounds and its spacing: a closer look at part of a large scan.
  * Colour: the file's red/green/blue when it has them and they are not all
  * zero (the bit depth is detected from the largest value found: <= 1.0 in a
  * float field: 0..1; <= 255: 8-bit; else 16-bit), otherwise height on the
@@ -66,6 +72,7 @@
 
 #include "common/error.h"
 #include "common/warnings.h"
+#include "io/schema.h"
 
 #define WPD_PREVIEW_DEFAULT_WIDTH 1200
 #define WPD_PREVIEW_DEFAULT_HEIGHT 700
@@ -81,6 +88,10 @@ typedef struct wpd_preview_options {
     int width, height;  /* image size in pixels (defaults 1200 x 700) */
     int overwrite;      /* 1: replace an existing output */
     int threads;        /* kNN threads, <= 0: OpenMP default */
+    const char *label;  /* a dimension to colour by: non-zero red, zero grey by
+                           height (NULL: RGB or height as above) */
+    int crop;           /* 1: draw only the points with crop_lo <= x, y < crop_hi */
+    double crop_lo[2], crop_hi[2];
 } wpd_preview_options;
 
 /* What was drawn for one input. */
@@ -95,6 +106,7 @@ typedef struct wpd_preview_panel {
     double spacing_median;   /* NaN when none */
     double spacing_p99;      /* 99th percentile, NaN when none */
     uint64_t hist_beyond;    /* distances beyond the histogram axis */
+    uint64_t labelled;       /* points drawn with a non-zero label (--label) */
     wpd_warnings warnings;   /* the file's (common/warnings.h), once it opened */
 } wpd_preview_panel;
 
@@ -108,6 +120,7 @@ typedef struct wpd_preview_summary {
     double scale;                /* pixels per coordinate unit */
     double z_lo, z_hi;           /* height ramp, relative to origin[2] */
     double hist_max;             /* histogram axis 0 .. hist_max (2 panels) */
+    char label[WPD_DIM_NAME_MAX];/* the dimension coloured by, "" for none */
 } wpd_preview_summary;
 
 /* An RGB image, 3 bytes per pixel, rows top to bottom. */

@@ -11,8 +11,9 @@
 #include <string.h>
 
 static const char *usage_text =
-    "usage: wpd preview FILE -o OUT.png [--width W] [--height H] [--force]\n"
-    "       wpd preview BEFORE AFTER -o OUT.png [--width W] [--height H] [--force]\n"
+    "usage: wpd preview FILE -o OUT.png [--width W] [--height H] [--label DIM]\n"
+    "                   [--crop X0,Y0,X1,Y1] [--force]\n"
+    "       wpd preview BEFORE AFTER -o OUT.png [same options]\n"
     "Draws a LAS or PLY point cloud as a PNG: an oblique orthographic view\n"
     "(azimuth 30, elevation 35 degrees) fitted to the image, coloured by the\n"
     "file's RGB when it has any, else by height (viridis). With two files, the\n"
@@ -24,6 +25,11 @@ static const char *usage_text =
     "  -o, --output FILE   the PNG to write; must not exist unless --force\n"
     "      --width W       image width in pixels (default 1200)\n"
     "      --height H      image height in pixels (default 700)\n"
+    "      --label DIM     colour by dimension DIM: red where it is not 0, grey by\n"
+    "                      height elsewhere (e.g. the edge label of resample\n"
+    "                      --edge-label, or synth's edge_truth)\n"
+    "      --crop X0,Y0,X1,Y1  draw only the points with X0 <= x < X1, Y0 <= y < Y1\n"
+    "                      (the file's coordinates)\n"
     "      --force         replace OUT if it exists\n"
     "  -q, --quiet         print nothing on success\n";
 
@@ -37,12 +43,27 @@ static int parse_side(const char *text, int *out)
     return 0;
 }
 
+/* Parses "X0,Y0,X1,Y1" with X0 < X1 and Y0 < Y1 into opt's crop. */
+static int parse_crop(const char *text, wpd_preview_options *opt)
+{
+    double v[4];
+    int used = 0;
+    if (sscanf(text, "%lf,%lf,%lf,%lf%n", &v[0], &v[1], &v[2], &v[3], &used) != 4 ||
+        text[used] || !(v[0] < v[2] && v[1] < v[3]))
+        return -1;
+    opt->crop = 1;
+    opt->crop_lo[0] = v[0], opt->crop_lo[1] = v[1];
+    opt->crop_hi[0] = v[2], opt->crop_hi[1] = v[3];
+    return 0;
+}
+
 int wpd_preview_main(int argc, char **argv)
 {
-    enum { OPT_WIDTH = 256, OPT_HEIGHT, OPT_FORCE };
+    enum { OPT_WIDTH = 256, OPT_HEIGHT, OPT_FORCE, OPT_LABEL, OPT_CROP };
     static const struct option longopts[] = {
         {"output", required_argument, 0, 'o'}, {"width", required_argument, 0, OPT_WIDTH},
         {"height", required_argument, 0, OPT_HEIGHT}, {"force", no_argument, 0, OPT_FORCE},
+        {"label", required_argument, 0, OPT_LABEL}, {"crop", required_argument, 0, OPT_CROP},
         {"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     wpd_preview_options opt;
     wpd_preview_defaults(&opt);
@@ -55,6 +76,14 @@ int wpd_preview_main(int argc, char **argv)
         case 'o': out = optarg; break;
         case 'q': quiet = 1; break;
         case OPT_FORCE: opt.overwrite = 1; break;
+        case OPT_LABEL: opt.label = optarg; break;
+        case OPT_CROP:
+            if (parse_crop(optarg, &opt)) {
+                fprintf(stderr, "wpd preview: --crop '%s': expected X0,Y0,X1,Y1 with X0 < X1 "
+                        "and Y0 < Y1\n", optarg);
+                return WPD_E_USAGE;
+            }
+            break;
         case 'h': fputs(usage_text, stdout); return 0;
         case OPT_WIDTH:
         case OPT_HEIGHT:

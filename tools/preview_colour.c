@@ -104,12 +104,20 @@ void preview_compose(const panel *p, const view *v, const colouring *col, const 
                 continue;
             uint8_t c[3];
             double shade = preview_edl_shade(depth, v->w, v->h, x, y, r);
-            if (col->by_rgb) {
+            if (col->by_label && p->label[src]) {
+                static const uint8_t red[3] = {230, 25, 25};
+                memcpy(c, red, 3);
+                shade = round(shade * (SHADE_LEVELS - 1)) / (SHADE_LEVELS - 1);
+            } else if (col->by_rgb) {
                 memcpy(c, p->rgb + 3 * (size_t)src, 3);
             } else {
                 double t = zspan > 0 ? (p->z[src] - col->z_lo) / zspan : 0.5;
                 t = t > 0 ? (t < 1 ? t : 1) : 0;
-                viridis(round(t * (RAMP_LEVELS - 1)) / (RAMP_LEVELS - 1), c);
+                t = round(t * (RAMP_LEVELS - 1)) / (RAMP_LEVELS - 1);
+                if (col->by_label) /* grey, darker below: the red stands out */
+                    c[0] = c[1] = c[2] = (uint8_t)lround(110 + 110 * t);
+                else
+                    viridis(t, c);
                 shade = round(shade * (SHADE_LEVELS - 1)) / (SHADE_LEVELS - 1);
             }
             uint8_t *o = img->rgb + 3 * ((size_t)(y0 + y) * img->width + (size_t)(x0 + x));

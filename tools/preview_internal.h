@@ -83,13 +83,18 @@ typedef struct panel {
     spacing_sample sample;
     double *spacing;         /* sorted nearest-neighbour distances */
     size_t nspacing;
+    const wpd_preview_options *opt; /* the label and the crop */
+    int label_dim;           /* index of the label dimension, -1: none */
+    uint8_t *label;          /* per pixel: 1 label set, when colouring by label */
 } panel;
 
-/* How pixels are coloured: by the files' RGB, else by height on the
- * viridis ramp over z_lo .. z_hi (relative to the origin). */
+/* How pixels are coloured: by a label (red, else grey by height), by the
+ * files' RGB, else by height on the viridis ramp over z_lo .. z_hi
+ * (relative to the origin). */
 typedef struct colouring {
     int by_rgb;
     double z_lo, z_hi;
+    int by_label;
 } colouring;
 
 /* ------------------------------------------------------------ preview_view.c */
@@ -114,8 +119,13 @@ void preview_panel_free(panel *p);
  * point is finite). */
 int preview_scan_pass(panel *p, wpd_batch *b, wpd_error *err);
 
-/* Allocates p's z-buffer for view v (RGB too when by_rgb) and its spacing
- * sample. Returns 0, or -1 with err set (WPD_E_MEMORY). */
+/* Drops the points of b outside p's crop (none without one), keeping
+ * the others in order. */
+void preview_crop_batch(const panel *p, wpd_batch *b);
+
+/* Allocates p's z-buffer for view v (RGB too when by_rgb, labels when
+ * p->label_dim >= 0) and its spacing sample. Returns 0, or -1 with err set
+ * (WPD_E_MEMORY). */
 int preview_panel_alloc(panel *p, const view *v, int by_rgb, wpd_error *err);
 
 /* Pass 2: every stride-th point (stride set here: at most 64

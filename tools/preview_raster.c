@@ -30,6 +30,8 @@ void preview_draw_point(panel *p, const view *v, const double q[3], const uint8_
         return;
     p->depth[i] = depth;
     p->z[i] = (float)q[2];
+    if (p->label)
+        p->label[i] = wpd_dim_get(&s->dims[p->label_dim], rec) != 0;
     if (p->rgb)
         for (int c = 0; c < 3; c++) {
             double t = wpd_dim_get(&s->dims[p->rgb_dim[c]], rec) / p->rgb_denom;

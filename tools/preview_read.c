@@ -19,7 +19,41 @@ void preview_panel_free(panel *p)
     free(p->rgb);
     free(p->sample.xyz);
     free(p->spacing);
+    free(p->label);
     memset(p, 0, sizeof *p);
+}
+
+void preview_crop_batch(const panel *p, wpd_batch *b)
+{
+    const wpd_preview_options *o = p->opt;
+    if (!o || !o->crop)
+        return;
+    size_t kept = 0, rs = b->record_size;
+    for (size_t i = 0; i < b->n; i++) {
+        const double *q = b->xyz + 3 * i;
+        if (!(q[0] >= o->crop_lo[0] && q[0] < o->crop_hi[0] && q[1] >= o->crop_lo[1] &&
+              q[1] < o->crop_hi[1]))
+            continue;
+        if (kept != i) {
+            memmove(b->xyz + 3 * kept, q, 3 * sizeof *q);
+            memmove(b->records + kept * rs, b->records + i * rs, rs);
+        }
+        kept++;
+    }
+    b->n = kept;
+}
+
+/* The label dimension of p's file (-1 without --label). Returns 0, or -1
+ * with err set when the file has no such dimension. */
+static int find_label(panel *p, const wpd_schema *s, wpd_error *err)
+{
+    p->label_dim = -1;
+    if (!p->opt || !p->opt->label)
+        return 0;
+    if ((p->label_dim = wpd_schema_find(s, p->opt->label)) < 0)
+        return wpd_fail(err, WPD_E_USAGE, "%s: no dimension %s to colour by", p->path,
+                        p->opt->label);
+    return 0;
 }
 
 /* Pass 1: bounds, count, the largest colour value and (track_views) the
@@ -28,6 +62,8 @@ int preview_scan_pass(panel *p, wpd_batch *b, wpd_error *err)
 {
     const wpd_schema *s = &wpd_cloud_header(p->cloud, 0)->schema;
     int has_rgb = preview_find_colour_dims(p);
+    if (find_label(p, s, err))
+        return -1;
     wpd_bounds bb;
     wpd_bounds_reset(&bb);
     double cmax = 0;
@@ -36,6 +72,7 @@ int preview_scan_pass(panel *p, wpd_batch *b, wpd_error *err)
             p->ext_lo[a][k] = INFINITY, p->ext_hi[a][k] = -INFINITY;
     long got;
     while ((got = wpd_cloud_read(p->cloud, b, NULL, err)) > 0) {
+        preview_crop_batch(p, b);
         wpd_bounds_add(&bb, b->xyz, b->n);
         if (p->track_views)
             preview_track_extents(p, b);
@@ -45,7 +82,8 @@ int preview_scan_pass(panel *p, wpd_batch *b, wpd_error *err)
     if (got < 0)
         return -1;
     if (bb.count == 0)
-        return wpd_fail(err, WPD_E_INPUT, "%s: no point with finite coordinates", p->path);
+        return wpd_fail(err, WPD_E_INPUT, "%s: no point with finite coordinates%s", p->path,
+                        p->opt && p->opt->crop ? " in the crop" : "");
     memcpy(p->lo, bb.min, sizeof p->lo);
     memcpy(p->hi, bb.max, sizeof p->hi);
     p->info.points = bb.count;
@@ -60,6 +98,9 @@ int preview_panel_alloc(panel *p, const view *v, int by_rgb, wpd_error *err)
     p->z = malloc(npix * sizeof *p->z);
     if (by_rgb)
         p->rgb = malloc(npix * 3);
+    if (p->label_dim >= 0 && !(p->label = malloc(npix)))
+        return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for a %d x %d picture", p->path,
+                        v->w, v->h);
     p->sample.cap = WPD_PREVIEW_SAMPLE_MAX;
     p->sample.xyz = malloc(p->sample.cap * 3 * sizeof *p->sample.xyz);
     if (!p->depth || !p->z || (by_rgb && !p->rgb) || !p->sample.xyz)
@@ -81,13 +122,16 @@ int preview_draw_pass(panel *p, const view *v, const double origin[3], wpd_batch
     uint64_t ordinal = 0;
     long got;
     while ((got = wpd_cloud_read(p->cloud, b, NULL, err)) > 0) {
+        preview_crop_batch(p, b);
         for (size_t i = 0; i < b->n; i++, ordinal++) {
             const double *a = b->xyz + 3 * i;
             double q[3] = {a[0] - origin[0], a[1] - origin[1], a[2] - origin[2]};
             preview_sample_add(&p->sample, q);
             if (ordinal % p->info.stride == 0) {
-                preview_draw_point(p, v, q, b->records + i * b->record_size, s);
+                const uint8_t *rec = b->records + i * b->record_size;
+                preview_draw_point(p, v, q, rec, s);
                 p->info.drawn++;
+                p->info.labelled += p->label && wpd_dim_get(&s->dims[p->label_dim], rec) != 0;
             }
         }
     }

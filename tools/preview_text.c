@@ -19,10 +19,13 @@ static const char *number(double v, char *buf, size_t len)
 }
 
 static void describe_panel(const wpd_preview_panel *p, const char *role, const char *path,
-                           char *buf, size_t len)
+                           const char *label, char *buf, size_t len)
 {
-    char colour[40], med[32], p99[32];
-    if (!p->by_rgb)
+    char colour[128], med[32], p99[32];
+    if (label)
+        snprintf(colour, sizeof colour, "%s (red: %llu drawn points not 0; grey by height)",
+                 label, (unsigned long long)p->labelled);
+    else if (!p->by_rgb)
         snprintf(colour, sizeof colour, "height");
     else if (p->rgb_bits)
         snprintf(colour, sizeof colour, "RGB (%d-bit)", p->rgb_bits);
@@ -40,11 +43,12 @@ static void describe_panel(const wpd_preview_panel *p, const char *role, const c
 void wpd_preview_describe(const wpd_preview_summary *s, const char *const *paths, char *buf,
                           size_t len)
 {
+    const char *label = s->label[0] ? s->label : NULL;
     size_t used = 0;
     buf[0] = '\0';
     for (int i = 0; i < s->panels && used < len; i++) {
         describe_panel(&s->panel[i], s->panels == 1 ? "" : i == 0 ? "before " : "after ",
-                       paths[i], buf + used, len - used);
+                       paths[i], label, buf + used, len - used);
         used += strlen(buf + used);
     }
     if (used < len)
@@ -55,8 +59,8 @@ void wpd_preview_describe(const wpd_preview_summary *s, const char *const *paths
                  s->origin[1], s->origin[2], s->extent[0], s->extent[1], s->extent[2]);
     used += strlen(buf + used);
     if (used < len && !s->panel[0].by_rgb)
-        snprintf(buf + used, len - used,
-                 "height ramp (viridis, dark to yellow): z %.6g .. %.6g\n",
+        snprintf(buf + used, len - used, "height ramp (%s): z %.6g .. %.6g\n",
+                 label ? "grey, dark to light" : "viridis, dark to yellow",
                  s->origin[2] + s->z_lo, s->origin[2] + s->z_hi);
     used += strlen(buf + used);
     if (used < len && s->panels == 2)

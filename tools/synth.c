@@ -99,7 +99,7 @@ int wpd_synth_generate(const wpd_synth_options *options, wpd_synth_summary *summ
     synth_scene_fit_under(&sc, fl.height);
     emitter em;
     scan s;
-    synth_scan_init(&s, &sc, &fl, &em, opt.seed);
+    synth_scan_init(&s, &sc, &fl, &em, opt.seed, opt.edge_truth);
     int rc = synth_emitter_open(&em, &opt, sc.side, err);
     if (rc == 0)
         rc = synth_fly(&s, err);

@@ -22,6 +22,17 @@
  *    in this order: double x y z, ushort intensity, uchar return_number,
  *    uchar number_of_returns, uchar classification, ushort point_source_id,
  *    double gps_time, uchar red green blue; two "wpd synth" comments.
+ *  - With edge_truth (`--edge-truth`), one more field, edge_truth: not 0
+ *    for a point within half the point spacing (the survey's pulse spacing,
+ *    0.35 to 0.38 m) of a building crease of 30 degrees or more, the kind
+ *    of the nearest one: 1 roof
+ *    ridge, 2 wall top (eaves, gable tops, flat roof edges), 3 wall
+ *    corner, 4 wall foot (synth_creases.h); 0 elsewhere, and always on
+ *    vegetation and noise.
+ *    LAS: one extra byte per record (35-byte records) described by an
+ *    Extra Bytes VLR (LASF_Spec/4, data_type 1 = uchar, after the
+ *    projection VLR); PLY: a last property "uchar edge_truth". The points
+ *    themselves are the same as without it.
  *  - Both: coordinates on the 0.01 m grid (PLY holds the same values);
  *    classification 2 ground, 5 vegetation, 6 building (roofs and walls),
  *    7 noise; return_number 1..number_of_returns (<= 5); point_source_id the
@@ -51,6 +62,7 @@ typedef struct wpd_synth_options {
                              from the extension of output (.las / .ply) */
     int ply_ascii;        /* PLY only: ascii instead of binary little-endian */
     int overwrite;        /* replace existing output files (else refuse) */
+    int edge_truth;       /* 1: add the field edge_truth (synth_creases.h) */
     const char *output;   /* output path; tile paths are derived from it */
 } wpd_synth_options;
 

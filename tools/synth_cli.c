@@ -16,7 +16,8 @@
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: wpd synth -n N -o OUT [--seed S] [--tiles K] [--ascii] [--force]\n"
+            "usage: wpd synth -n N -o OUT [--seed S] [--tiles K] [--edge-truth] [--ascii]\n"
+            "                 [--force]\n"
             "\n"
             "Writes a synthetic city-like airborne LiDAR scan of exactly N points\n"
             "(terrain, streets, buildings with walls and roofs, trees with multiple\n"
@@ -29,6 +30,12 @@ static void usage(FILE *f)
             "  --seed S     random seed (default 1); same N and S give the same bytes\n"
             "  --tiles K    write K files OUT_tile1 .. OUT_tileK (1..%d), one per cell\n"
             "               of a near-square grid over the scene\n"
+            "  --edge-truth add the field edge_truth: for the points within half the\n"
+            "               point spacing (pulse spacing 0.35-0.38 m) of a building\n"
+            "               crease of 30 degrees\n"
+            "               or more, the kind of the nearest: 1 ridge, 2 wall top\n"
+            "               (eaves), 3 wall corner, 4 wall foot; 0 elsewhere (LAS: an\n"
+            "               extra byte with its Extra Bytes VLR; PLY: uchar)\n"
             "  --ascii      ascii PLY\n"
             "  --force      overwrite existing output files\n"
             "  --help       this text\n"
@@ -133,6 +140,8 @@ static int parse_args(int argc, char **argv, wpd_synth_options *opt)
             opt->ply_ascii = 1;
         } else if (!strcmp(a, "--force")) {
             opt->overwrite = 1;
+        } else if (!strcmp(a, "--edge-truth")) {
+            opt->edge_truth = 1;
         } else if ((name = valued_option(a))) {
             if (!(v = option_value(argc, argv, &i, name)))
                 return cli_fail(WPD_E_USAGE, "option %s needs a value (see 'wpd synth --help')",

@@ -5,6 +5,7 @@
  */
 #include "synth_output.h"
 #include "common/tmpdir.h"
+#include "io/las.h"
 
 #include <inttypes.h>
 #include <libgen.h>
@@ -111,6 +112,35 @@ static void ply_schema(wpd_schema *s)
     s->record_size = P_SIZE;
 }
 
+/* The ground truth of sharp features as the records' last byte. */
+#define TRUTH_NAME "edge_truth"
+#define TRUTH_DESCRIPTION "crease kind, half pulse spacing"
+
+static void add_truth_field(emitter *e)
+{
+    wpd_schema *s = &e->hdr.schema;
+    e->truth_at = (int)s->record_size;
+    wpd_schema_add(s, TRUTH_NAME, WPD_U8, s->record_size);
+    s->record_size++;
+}
+
+/* The Extra Bytes VLR that names the LAS record's extra byte. */
+static void las_truth_vlr(emitter *e)
+{
+    wpd_las_info *las = &e->hdr.las;
+    wpd_vlr *vlr = &e->vlr[1];
+    memset(vlr, 0, sizeof *vlr);
+    snprintf(vlr->user_id, sizeof vlr->user_id, "LASF_Spec");
+    vlr->record_id = 4;
+    vlr->length = sizeof e->ebv_data;
+    snprintf(vlr->description, sizeof vlr->description, "Extra Bytes");
+    wpd_las_put_descriptor(e->ebv_data, WPD_U8, TRUTH_NAME, TRUTH_DESCRIPTION);
+    vlr->data = e->ebv_data;
+    las->nvlr = 2;
+    las->offset_to_points += 54 + (uint32_t)sizeof e->ebv_data;
+    las->record_length++;
+}
+
 /* ------------------------------------------------------------ headers */
 
 /* GeoTIFF keys of the LAS projection VLR: WGS 84 / UTM zone 18N (the
@@ -132,9 +162,11 @@ _Static_assert(sizeof geo_keys / sizeof *geo_keys == SYNTH_GEO_KEYS, "emitter.vl
 static void las_header(emitter *e)
 {
     wpd_las_info *las = &e->hdr.las;
-    wpd_vlr *vlr = &e->vlr;
+    wpd_vlr *vlr = &e->vlr[0];
     /* LAS 1.2 holds at most 2^32 - 1 points; beyond, 1.4 (which still
-     * allows point format 3) with its 64-bit counts. */
+     * allows point format 3) with its 64-bit counts. An Extra Bytes VLR
+     * in a 1.2 file (edge_truth) is what LAS 1.4 defines and common
+     * readers accept in any version. */
     int v14 = e->opt->points > UINT32_MAX;
     las->version_major = 1, las->version_minor = v14 ? 4 : 2, las->pdrf = 3;
     las->record_length = L3_SIZE, las->header_size = v14 ? 375 : 227;
@@ -159,6 +191,10 @@ static void las_header(emitter *e)
     las->offset_to_points = las->header_size + 54 + (uint32_t)sizeof geo_keys;
     las_schema(&e->hdr.schema, las->scale, las->offset);
     e->las = 1;
+    if (e->opt->edge_truth) {
+        las_truth_vlr(e);
+        add_truth_field(e);
+    }
 }
 
 /* The PLY header with its two comments (kept in e). */
@@ -172,12 +208,15 @@ static void ply_header(emitter *e)
     e->comments[0] = e->comment_buf[0], e->comments[1] = e->comment_buf[1];
     h->ply.comments = e->comments, h->ply.ncomments = 2;
     ply_schema(&h->schema);
+    if (e->opt->edge_truth)
+        add_truth_field(e);
 }
 
 /* Fills e->hdr for the output format (the writer deep-copies it). */
 static void build_header(emitter *e)
 {
     memset(&e->hdr, 0, sizeof e->hdr);
+    e->truth_at = -1;
     e->hdr.format = e->opt->format;
     if (e->hdr.format == WPD_FMT_LAS)
         las_header(e);
@@ -289,6 +328,8 @@ int synth_emit_point(emitter *e, const point *p, wpd_error *err)
         encode_las3(rec, p);
     else
         encode_ply(rec, p, xyz);
+    if (e->truth_at >= 0)
+        rec[e->truth_at] = (uint8_t)p->crease;
     for (int a = 0; a < 3; a++) {
         if (k[a] < e->kmin[a]) e->kmin[a] = k[a];
         if (k[a] > e->kmax[a]) e->kmax[a] = k[a];

@@ -21,6 +21,7 @@ typedef struct point {
     double gps_time;
     int intensity, ret, nret, scan_dir, edge, cls, angle, source;
     int rgb[3];                  /* 8-bit */
+    int crease;                  /* kind of crease it lies on (synth_creases.h): edge_truth */
 } point;
 
 /* One output file: its writer, the batch being filled, its path. */
@@ -35,8 +36,10 @@ typedef struct tile_out {
 typedef struct emitter {
     const wpd_synth_options *opt;
     wpd_header hdr;
-    wpd_vlr vlr;                    /* LAS: the projection VLR and its payload */
+    wpd_vlr vlr[2];                 /* LAS: the projection VLR and its payload, */
     uint8_t vlr_data[2 * SYNTH_GEO_KEYS];
+    uint8_t ebv_data[192];          /* the Extra Bytes VLR's (with edge_truth) */
+    int truth_at;                   /* record offset of edge_truth, or -1 */
     char *comments[2];              /* PLY: the header comments */
     char comment_buf[2][128];
     int las;                        /* LAS PDRF 3 records, else PLY vertices */

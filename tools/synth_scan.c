@@ -19,11 +19,13 @@ static const uint8_t material_rgb[MAT_COUNT][3] = {
     {128, 100, 70}, {78, 76, 74}, {140, 140, 142}, {165, 155, 140}, {62, 112, 52}, {200, 200, 200},
 };
 
-void synth_scan_init(scan *s, const scene *sc, const flight *fl, emitter *em, uint64_t seed)
+void synth_scan_init(scan *s, const scene *sc, const flight *fl, emitter *em, uint64_t seed,
+                     int creases)
 {
     memset(s, 0, sizeof *s);
     s->sc = sc, s->fl = fl, s->em = em, s->time = GPS_START;
-    synth_tracer_init(&s->tr, sc);
+    /* Half the pulse spacing: the band of the ground truth (synth_creases.h). */
+    synth_tracer_init(&s->tr, sc, creases ? 0.5 * fl->line_spacing : 0);
     rng_seed(&s->g, seed);
 }
 
@@ -74,6 +76,7 @@ static int emit_pulse(scan *s, point *p, const echo *ech, int n, double gain, wp
         uint64_t bits = rng_next(&s->g);
         p->ret = i + 1;
         p->x = ech[i].x;
+        p->crease = ech[i].crease;
         p->z = ech[i].z + 0.05 * tri_noise((uint32_t)bits);   /* ranging noise, sd 2 cm */
         shade_point(&s->g, p, &ech[i], gain, tri_noise((uint32_t)(bits >> 32)));
         if (synth_emit_point(em, p, err))

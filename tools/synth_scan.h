@@ -31,8 +31,10 @@ typedef struct scan {
 } scan;
 
 /* A scan of scene sc along flight fl into em (all of which must outlive
- * it), its random stream seeded from seed, starting at the first GPS time. */
-void synth_scan_init(scan *s, const scene *sc, const flight *fl, emitter *em, uint64_t seed);
+ * it), its random stream seeded from seed, starting at the first GPS time;
+ * creases: 1 to mark the points on creases (point.crease). */
+void synth_scan_init(scan *s, const scene *sc, const flight *fl, emitter *em, uint64_t seed,
+                     int creases);
 
 /* Flies the strips (again, with new source ids, in the rare case that one
  * pass falls short) until em's target count is written. Returns 0 or -1

@@ -8,6 +8,8 @@
  */
 #include "synth_trace.h"
 
+#include "synth_creases.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -119,8 +121,9 @@ static hit trace_solid(tracer *tr, const ray *r)
     double z = terrain(sc, x, r->y);
     tr->ground_guess = z;
     int street, street_top;
-    hit best = {x, z, MAT_GROUND, 1.0}, h;
+    hit best = {x, z, MAT_GROUND, 1.0, 0}, h;
     const building *b = synth_building_at(sc, x, r->y, &tr->blocks[0], &tr->lots[0], &street);
+    const building *on = b;      /* the ground of b's lot, or the building hit */
     if (street)
         best.material = MAT_STREET;
     if (b && building_hit(b, r, &h) && h.z > best.z)
@@ -129,7 +132,12 @@ static hit trace_solid(tracer *tr, const ray *r)
                                            &tr->lots[1], &street_top);
     if (b2 && !(b && b2->bi == b->bi && b2->bj == b->bj && b2->li == b->li && b2->lj == b->lj) &&
         building_hit(b2, r, &h) && h.z > best.z)
-        best = h;
+        best = h, on = b2;
+    /* The ground near a foot lies on the lot of its building (lots keep
+     * 3 m around a building), so b is the one building it can be near. */
+    best.crease = tr->crease_band > 0 && on
+                      ? synth_on_crease(sc, on, best.x, r->y, best.z, tr->crease_band)
+                      : 0;
     return best;
 }
 
@@ -157,7 +165,7 @@ static int crown_echoes(rng *g, const ray *r, const hit *solid, double top, doub
             z = first - slice * (i - 1 + rng_unit(g));
             if (z < low) z = low;
         }
-        out[i] = (echo){ray_x(r, z), z, MAT_TREE, 1.0};
+        out[i] = (echo){ray_x(r, z), z, MAT_TREE, 1.0, 0};
     }
     if (last_on_solid)
         out[n - 1] = *solid;
@@ -172,7 +180,7 @@ static int trace_echoes(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS])
     if (rng_unit(g) < NOISE_RATE) {
         double z = rng_unit(g) < 0.6 ? solid.z + 15 + 100 * rng_unit(g)
                                      : solid.z - 0.5 - 5 * rng_unit(g);
-        out[0] = (echo){ray_x(r, z), z, MAT_NOISE, 1.0};
+        out[0] = (echo){ray_x(r, z), z, MAT_NOISE, 1.0, 0};
         return 1;
     }
     /* Built lots hold no trees: only street crowns reach a little way in. */
@@ -187,10 +195,11 @@ static int trace_echoes(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS])
     return 1;
 }
 
-void synth_tracer_init(tracer *tr, const scene *sc)
+void synth_tracer_init(tracer *tr, const scene *sc, double crease_band)
 {
     memset(tr, 0, sizeof *tr);
     tr->sc = sc;
+    tr->crease_band = crease_band;
     tr->ground_guess = GROUND_LEVEL;
 }
 

@@ -15,8 +15,10 @@
  * track; descending by 1 m moves it s metres in x. */
 typedef struct ray { double xa, y, za, s; } ray;
 
-/* One return, in local coordinates, before the acquisition attributes. */
-typedef struct echo { double x, z; int material; double shade; } echo;
+/* One return, in local coordinates, before the acquisition attributes;
+ * crease: the kind of building crease it lies on (synth_creases.h), when
+ * asked for; 0 otherwise. */
+typedef struct echo { double x, z; int material; double shade; int crease; } echo;
 
 /* Per-scan lookup state: caches of scene features (each lookup kind its
  * own, so they do not evict each other) and the last ground height. */
@@ -26,10 +28,13 @@ typedef struct tracer {
     building lots[2];            /* lot under the ground hit, lot at roof level */
     tree trees[3];               /* two kerb directions, park */
     double ground_guess;         /* ground height of the previous pulse */
+    double crease_band;          /* > 0: mark the echoes within it of a crease */
 } tracer;
 
-/* A tracer for scene sc (which must outlive it), with empty caches. */
-void synth_tracer_init(tracer *tr, const scene *sc);
+/* A tracer for scene sc (which must outlive it), with empty caches;
+ * crease_band > 0: set each echo's crease kind for that band (half the
+ * point spacing; synth_creases.h), else it stays 0. */
+void synth_tracer_init(tracer *tr, const scene *sc, double crease_band);
 
 /* Traces ray r, drawing from g; returns the number of echoes (1 ..
  * MAX_RETURNS, written to out in return order), or 0 when one of them

@@ -44,7 +44,13 @@ static const char *usage_text =
     "  -k N                  neighbours for normals and smoothing (13)\n"
     "      --iterations N    smoothing iterations (5)\n"
     "      --no-smooth       Poisson sample only: no point moves\n"
-    "      --sharp           detect sharp features, sample them at r/2, keep them fixed\n"
+    "      --sharp           detect sharp features (creases: points within half the\n"
+    "                        spacing of where two planar faces meet at 30 degrees or\n"
+    "                        more), sample them at r/2, keep them fixed\n"
+    "      --edge-label      with --sharp: write each output point's label (1 sharp,\n"
+    "                        0 not) as the field \"edge\" (LAS: an extra byte with\n"
+    "                        its Extra Bytes VLR; PLY: uchar); an input field of that\n"
+    "                        name is replaced\n"
     "      --seed S          visiting order of the Poisson pass (0)\n"
     "      --smooth-mode M   centroid (Lloyd step, default), vertex-mean (the authors'\n"
     "                        release) or cotan (eq. 8 as printed; moves nothing)\n"
@@ -80,6 +86,7 @@ typedef struct resample_options {
     int skip_existing;        /* --per-input: skip inputs whose output is newer */
     int quiet, verbose;
     int metrics;              /* quality summary (wpd metrics) of the result */
+    int edge_label;           /* write the sharp labels as the field "edge" */
     wpd_progress progress;
     wpd_params params;
     wpd_write_options write;
@@ -142,7 +149,7 @@ static int parse_positive(const char *text, double lo, double hi, double *out)
 enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
        OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
        OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT,
-       OPT_SKIP_EXISTING, OPT_METRICS };
+       OPT_SKIP_EXISTING, OPT_METRICS, OPT_EDGE_LABEL };
 
 static int parse_option(int c, const char *arg, resample_options *o)
 {
@@ -176,6 +183,7 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_REPORT: o->report = arg; return 0;
     case OPT_SKIP_EXISTING: o->skip_existing = 1; return 0;
     case OPT_METRICS: o->metrics = 1; return 0;
+    case OPT_EDGE_LABEL: o->edge_label = 1; return 0;
     case OPT_MEM: return parse_size(arg, &o->mem_bytes);
     case OPT_MIN_TILES: if (parse_positive(arg, 1, 1e6, &v)) return -1; o->min_tiles = (int)v; return 0;
     case OPT_RADIUS_EST:
@@ -206,6 +214,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"tmpdir", required_argument, 0, OPT_TMPDIR}, {"report", required_argument, 0, OPT_REPORT},
         {"skip-existing", no_argument, 0, OPT_SKIP_EXISTING},
         {"metrics", no_argument, 0, OPT_METRICS},
+        {"edge-label", no_argument, 0, OPT_EDGE_LABEL},
         {"min-tiles", required_argument, 0, OPT_MIN_TILES},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
@@ -234,6 +243,11 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         o->write.overwrite = 1; /* outputs older than their input are replaced */
     if (o->skip_existing && !o->per_input) {
         fprintf(stderr, "wpd resample: --skip-existing goes with --per-input\n");
+        return -1;
+    }
+    if (o->edge_label && !o->params.sharp) {
+        fprintf(stderr, "wpd resample: --edge-label goes with --sharp (the labels come from "
+                "its detector)\n");
         return -1;
     }
     if (o->output && wpd_format_from_name(o->output) == WPD_FMT_NONE) {
@@ -348,9 +362,14 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
                "back to the input surface, %zu kept still (no surface around them), %zu "
                "isolated, %zu moves shortened for spacing and cover\n", o->params.iterations,
                r->open_cells, r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
-    if (o->params.sharp)
-        printf("  sharp features: %llu input points labelled\n",
-               (unsigned long long)r->sharp_points);
+    if (o->params.sharp) {
+        size_t samples = 0;
+        for (size_t i = 0; r->edge && i < r->count; i++)
+            samples += r->edge[i];
+        printf("  sharp features: %llu input points labelled, %zu output points%s\n",
+               (unsigned long long)r->sharp_points, samples,
+               o->edge_label ? " (field " WPD_EDGE_FIELD ")" : "");
+    }
     if (r->in_memory)
         printf("  in memory: one tile, no spill\n");
     else
@@ -474,6 +493,10 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         return -1;
     if (!o->quiet)
         wpd_cloud_print_warnings(cloud, "resample", stderr);
+    for (int i = 0; o->edge_label && !o->quiet && i < wpd_cloud_nfiles(cloud); i++)
+        if (wpd_schema_find(&wpd_cloud_header(cloud, i)->schema, WPD_EDGE_FIELD) >= 0)
+            fprintf(stderr, "wpd resample: notice: %s has a field " WPD_EDGE_FIELD ": the "
+                    "output's gets the sharp-feature labels\n", wpd_cloud_header(cloud, i)->path);
     uint64_t target;
     int rc = -1;
     wpd_selection sel = {0};
@@ -506,7 +529,9 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     rc = wpd_resample_run(cloud, &ro, &res, err);
     /* The selection borrows the result's arrays. */
     sel = (wpd_selection){res.count, res.gid, res.xyz, res.records, res.record_size, res.moved,
-                          res.radius / 1000};
+                          res.radius / 1000, o->edge_label ? res.edge : NULL};
+    if (rc == 0 && o->edge_label && !res.edge && res.count)
+        rc = wpd_fail(err, WPD_E_USAGE, "internal error: no sharp-feature labels to write");
     info.dropped = wpd_cloud_dropped(cloud);
     if (rc == 0 && wpd_cloud_dropped(cloud) && !o->quiet)
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "

@@ -1,5 +1,6 @@
 /* main.c - the wpd command: dispatch to subcommands. */
 #include "cli/commands.h"
+#include "edges.h"
 #include "metrics.h"
 #include "preview.h"
 #include "synth.h"
@@ -24,6 +25,7 @@ static const command commands[] = {
     {"synth", wpd_synth_main, "generate a synthetic city-like LiDAR scan of any size"},
     {"metrics", wpd_metrics_main, "quality of a resampling: distances, density, spacing"},
     {"preview", wpd_preview_main, "draw a cloud, or two side by side with spacing histograms (PNG)"},
+    {"edges", wpd_edges_main, "label the sharp features (creases) of a cloud, measure them"},
 };
 
 static void usage(FILE *f)

@@ -28,9 +28,12 @@ static int needs_wider_coordinates(const wpd_header *out, const wpd_bounds *b, d
     return 0;
 }
 
+/* The output's layout: the input's in the output format, coordinates
+ * widened where smoothing needs it, the label field last; *label gets its
+ * index (-1 without labels). */
 static int plan_output(const wpd_selection *sel, size_t first, size_t count,
                        const wpd_header *in, const char *path, wpd_header *out,
-                       wpd_layout_map *map, wpd_error *err)
+                       wpd_layout_map *map, int *label, wpd_error *err)
 {
     wpd_bounds bounds;
     wpd_bounds_reset(&bounds);
@@ -45,6 +48,13 @@ static int plan_output(const wpd_selection *sel, size_t first, size_t count,
         wpd_header_free(out);
         return -1;
     }
+    int replaced;
+    *label = -1;
+    if (sel->edge && (*label = wpd_layout_add_label(out, WPD_EDGE_FIELD, WPD_EDGE_DESCRIPTION,
+                                                    &replaced, err)) < 0) {
+        wpd_header_free(out);
+        return -1;
+    }
     return 0;
 }
 
@@ -56,7 +66,8 @@ static int write_points(const wpd_selection *sel, size_t first, size_t count,
 {
     wpd_header out;
     wpd_layout_map map;
-    if (plan_output(sel, first, count, in, path, &out, &map, err))
+    int label = -1;
+    if (plan_output(sel, first, count, in, path, &out, &map, &label, err))
         return -1;
     wpd_batch src, dst;
     int rc = -1;
@@ -75,6 +86,8 @@ static int write_points(const wpd_selection *sel, size_t first, size_t count,
         memcpy(src.records, sel->records + start * sel->record_size, src.n * sel->record_size);
         memcpy(src.xyz, sel->xyz + 3 * start, 3 * src.n * sizeof *src.xyz);
         wpd_layout_apply(&map, &in->schema, &out.schema, &src, &dst);
+        if (label >= 0)
+            wpd_layout_set_labels(&out.schema.dims[label], &dst, sel->edge + start);
         if (wpd_writer_write(w, &dst, err))
             goto done;
     }

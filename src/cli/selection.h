@@ -20,10 +20,19 @@ typedef struct wpd_selection {
     uint32_t record_size;
     int moved;                /* 1: coordinates changed (smoothing) */
     double precision;         /* resolution the moved coordinates need */
+    const uint8_t *edge;      /* [n] sharp-feature labels to write as the field
+                                 WPD_EDGE_FIELD, or NULL: none written */
 } wpd_selection;
 
+/* The output field of the sharp-feature labels (resample --edge-label). An
+ * input field of that name is replaced: it keeps its place and type and
+ * gets the labels. */
+#define WPD_EDGE_FIELD "edge"
+#define WPD_EDGE_DESCRIPTION "sharp feature (wpd --sharp)"
+
 /* Writes sel to path (format from its extension), in the layout that
- * wpd_layout_plan gives for the input header in, finished (flushed and
+ * wpd_layout_plan gives for the input header in (with the field
+ * WPD_EDGE_FIELD when sel->edge is set), finished (flushed and
  * closed) under its temporary name, described by *pending: the caller
  * renames it with wpd_outfile_rename_all (with the report, if any).
  * Returns 0, or -1 with nothing left. */

@@ -100,6 +100,15 @@ static int smallest_eigen_fast(const double a[6], double ev[3], double vec[3])
     return 1;
 }
 
+void wpd_sym3_smallest(const double a[6], double evals[3], double vec[3])
+{
+    if (smallest_eigen_fast(a, evals, vec))
+        return;
+    double evecs[3][3];
+    wpd_sym3_eigen(a, evals, evecs);
+    memcpy(vec, evecs[0], 3 * sizeof *vec);
+}
+
 void wpd_plane_fit(const double *xyz, const uint32_t *idx, int m, wpd_plane *pl)
 {
     memset(pl, 0, sizeof *pl);

@@ -13,6 +13,11 @@
  * eigenvector of evals[i]. */
 void wpd_sym3_eigen(const double a[6], double evals[3], double evecs[3][3]);
 
+/* The eigenvalues of the same matrix (ascending) and the unit eigenvector
+ * of the smallest: in closed form where that is well conditioned, else by
+ * wpd_sym3_eigen. For plane normals in inner loops. */
+void wpd_sym3_smallest(const double a[6], double evals[3], double vec[3]);
+
 /* A plane fitted to m points by PCA. */
 typedef struct wpd_plane {
     double centroid[3];

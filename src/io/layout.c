@@ -194,16 +194,6 @@ static int pick_pdrf(const wpd_schema *in)
     return has_rgb ? 7 : 6;
 }
 
-/* LAS data_type code of an extra-bytes field of type t (LAS 1.4 table 24). */
-static uint8_t extra_bytes_type(wpd_type t)
-{
-    static const uint8_t code[] = {
-        [WPD_U8] = 1, [WPD_I8] = 2, [WPD_U16] = 3, [WPD_I16] = 4, [WPD_U32] = 5,
-        [WPD_I32] = 6, [WPD_U64] = 7, [WPD_I64] = 8, [WPD_F32] = 9, [WPD_F64] = 10,
-    };
-    return code[t];
-}
-
 /* Colour depth change: 8-bit and 0..1 float colours become 16-bit. */
 static double colour_multiplier(const char *las_name, wpd_type src)
 {
@@ -216,13 +206,12 @@ static double colour_multiplier(const char *las_name, wpd_type src)
     return src == WPD_F32 || src == WPD_F64 ? 65535.0 : 1.0;
 }
 
-/* Appends one 192-byte Extra Bytes descriptor for dimension d to buf. */
+/* One 192-byte Extra Bytes descriptor for dimension d. */
 static void put_descriptor(uint8_t *desc, const wpd_dim *d)
 {
-    memset(desc, 0, 192);
-    desc[2] = extra_bytes_type(d->type);
-    snprintf((char *)desc + 4, 32, "%s", d->name);
-    snprintf((char *)desc + 160, 32, "%s (from PLY)", d->name);
+    char description[64];
+    snprintf(description, sizeof description, "%s (from PLY)", d->name);
+    wpd_las_put_descriptor(desc, d->type, d->name, description);
 }
 
 static int add_extra_bytes_vlr(wpd_las_info *las, const wpd_schema *in, const int *extra,
@@ -396,8 +385,16 @@ void wpd_layout_apply(const wpd_layout_map *map, const wpd_schema *in,
 {
     dst->n = src->n;
     memcpy(dst->xyz, src->xyz, src->n * 3 * sizeof *src->xyz);
-    if (map->identity) {
+    if (map->identity && dst->record_size == src->record_size) {
         memcpy(dst->records, src->records, src->n * (size_t)src->record_size);
+        return;
+    }
+    if (map->identity) { /* a longer output record: fields were appended */
+        size_t in_size = src->record_size, out_size = dst->record_size;
+        for (size_t i = 0; i < src->n; i++) {
+            memcpy(dst->records + i * out_size, src->records + i * in_size, in_size);
+            memset(dst->records + i * out_size + in_size, 0, out_size - in_size);
+        }
         return;
     }
     memset(dst->records, 0, src->n * (size_t)dst->record_size);
@@ -415,4 +412,38 @@ void wpd_layout_apply(const wpd_layout_map *map, const wpd_schema *in,
             wpd_dim_set(&out->dims[fm->dst], w, v);
         }
     }
+}
+
+/* ------------------------------------------------------------------ labels */
+
+int wpd_layout_add_label(wpd_header *out, const char *name, const char *description,
+                         int *replaced, wpd_error *err)
+{
+    wpd_schema *s = &out->schema;
+    int d = wpd_schema_find(s, name);
+    *replaced = d >= 0;
+    if (d >= 0)
+        return d;
+    if (out->format == WPD_FMT_LAS) {
+        if (wpd_las_append_extra(out, name, WPD_U8, description, err))
+            return -1;
+    } else if (s->record_size < UINT32_MAX && wpd_schema_add(s, name, WPD_U8, s->record_size) >= 0) {
+        s->record_size++;
+    }
+    d = wpd_schema_find(s, name);
+    if (d < 0)
+        return wpd_fail(err, WPD_E_INPUT, "%s: no room for the field %s (%u dimensions)",
+                        out->path, name, s->ndims);
+    return d;
+}
+
+void wpd_layout_set_labels(const wpd_dim *d, wpd_batch *b, const uint8_t *value)
+{
+    if (!d->bit_count && !d->scaled && d->type == WPD_U8) {
+        for (size_t i = 0; i < b->n; i++)
+            b->records[i * b->record_size + d->offset] = value[i];
+        return;
+    }
+    for (size_t i = 0; i < b->n; i++)
+        wpd_dim_set(d, b->records + i * b->record_size, value[i]);
 }

@@ -26,7 +26,8 @@ typedef struct wpd_field_map {
 } wpd_field_map;
 
 typedef struct wpd_layout_map {
-    int identity;              /* 1: records are copied unchanged */
+    int identity;              /* 1: records are copied unchanged (the output record
+                                  may be longer: its tail is zeroed) */
     uint32_t nfields;
     wpd_field_map fields[WPD_MAX_DIMS];
 } wpd_layout_map;
@@ -49,6 +50,21 @@ int wpd_layout_plan(const wpd_header *in, const wpd_bounds *bounds, wpd_format f
  * or -1 with err set. */
 int wpd_layout_widen_coordinates(const wpd_header *in, wpd_header *out, wpd_layout_map *map,
                                  wpd_error *err);
+
+/* A one-byte label field `name` in the output planned by wpd_layout_plan
+ * (and wpd_layout_widen_coordinates, which must come first: it maps the
+ * output's fields from the input's): the output's field
+ * of that name when it has one (*replaced = 1: it gets the labels, keeping
+ * its place and type), else a new one after the others (LAS: an extra byte
+ * described by the Extra Bytes VLR, see wpd_las_append_extra, with the
+ * given description; PLY: a uchar property). Returns its index in
+ * out->schema, or -1 with err set (no room: the record, the VLR or the
+ * schema is full; WPD_E_MEMORY). */
+int wpd_layout_add_label(wpd_header *out, const char *name, const char *description,
+                         int *replaced, wpd_error *err);
+
+/* Stores value[i] into dimension d of record i of b, for i < b->n. */
+void wpd_layout_set_labels(const wpd_dim *d, wpd_batch *b, const uint8_t *value);
 
 /* Converts src (input layout) into dst (output layout, capacity >= src->n):
  * every mapped field converted, unmapped output fields zero, xyz copied. */

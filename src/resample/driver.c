@@ -190,12 +190,14 @@ static int finish(wpd_run *run, wpd_error *err)
 /* The Poisson passes. The greedy pass is sequential, so with one tile in
  * memory, smoothing to come and two threads or more, the tile's surface
  * grid is built alongside it on another thread (the grid does not depend
- * on the threads that build it). */
+ * on the threads that build it). Not with --sharp: the labelling that
+ * comes first is parallel (in a section it would run on one thread), and
+ * builds that grid itself (poisson_pass.c). */
 static int poisson_phase(wpd_run *run, wpd_error *err)
 {
     const wpd_params *p = run->p;
     int surface = run->res->in_memory && p->smooth && p->iterations > 0 && p->keep_on_surface;
-    if (!surface || run->threads < 2)
+    if (!surface || run->threads < 2 || p->sharp)
         return wpd_poisson_phase(run, err);
     int rc = 0, surface_rc = 0;
     wpd_error surface_err = {0};

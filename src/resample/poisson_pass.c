@@ -116,20 +116,21 @@ typedef struct cursors {
 
 /* Sharp labels of the points of d, from the input within r0 of each (the
  * capped detector): exact for own points and halo points closer than
- * H - r0 to the box, the ones that are not blind. */
-static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, uint8_t **edge,
-                       wpd_error *err)
+ * H - r0 to the box, the ones that are not blind. keep: where to build
+ * the grid and leave it (the one tile in memory: the run's surface grid,
+ * which smoothing uses next), or NULL. */
+static int label_sharp(const wpd_run *run, const wpd_tile_data *d, wpd_grid *keep, int threads,
+                       uint8_t **edge, wpd_error *err)
 {
-    wpd_grid surface = {0};
+    wpd_grid own = {0}, *surface = keep ? keep : &own;
     *edge = malloc(d->n ? d->n : 1);
     if (!*edge)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu edge labels", d->n);
-    if (wpd_grid_build_knn(&surface, d->xyz, NULL, d->n, run->p->k, run->surface_dk, threads,
-                           err))
+    if (!surface->n && wpd_grid_build_knn(surface, d->xyz, NULL, d->n, run->p->k,
+                                          run->surface_dk, threads, err))
         return -1;
-    wpd_detect_sharp_capped(&surface, 0, d->n, run->p->k, run->res->radius_estimate,
-                            run->p->sharp_threshold, *edge, threads);
-    wpd_grid_free(&surface);
+    wpd_detect_sharp_capped(surface, 0, d->n, run->res->radius_estimate, *edge, threads);
+    wpd_grid_free(&own);
     return 0;
 }
 
@@ -202,7 +203,7 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     v->wanted = malloc(m);
     if (!v->cls || !v->blind || !v->wanted)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    if (run->p->sharp && label_sharp(run, &v->d, threads, &v->edge, err))
+    if (run->p->sharp && label_sharp(run, &v->d, NULL, threads, &v->edge, err))
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
     double blind_from = run->halo - run->res->radius_estimate;
@@ -491,7 +492,7 @@ static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
         goto done;
     }
     if (p->sharp && !pc->memo_edge) {
-        if (label_sharp(run, &d, run->threads, &pc->memo_edge, err))
+        if (label_sharp(run, &d, &run->surface, run->threads, &pc->memo_edge, err))
             goto done;
         for (size_t i = 0; i < d.n; i++)
             run->res->sharp_points += pc->memo_edge[i];
@@ -602,24 +603,32 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
     return rc;
 }
 
-/* n >= the input: every own point is kept as it is. */
+/* n >= the input: every own point is kept as it is, with its sharp label
+ * under --sharp (own points see their whole neighbourhood in the halo). */
 static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
-    (void)threads, (void)arg;
+    (void)arg;
     wpd_tile_data d;
     if (wpd_tiles_read(&run->tiles, t, &d, err))
         return -1;
     wpd_tile_samples *s = &run->store[t];
-    int rc = 0;
-    if (wpd_samples_alloc(s, d.n, 0))
+    uint8_t *edge = NULL;
+    int rc = run->p->sharp ? label_sharp(run, &d, NULL, threads, &edge, err) : 0;
+    if (rc == 0 && wpd_samples_alloc(s, d.n, edge != NULL))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    uint64_t sharp = 0;
     for (size_t i = 0; rc == 0 && i < d.n; i++) {
         if (d.halo[i])
             continue;
         s->gid[s->n] = d.gid[i];
         memcpy(s->xyz + 3 * s->n, d.xyz + 3 * i, 3 * sizeof *s->xyz);
+        if (edge)
+            sharp += s->edge[s->n] = edge[i];
         s->n++;
     }
+#pragma omp atomic
+    run->res->sharp_points += sharp;
+    free(edge);
     wpd_tiles_release(&run->tiles, &d);
     return rc;
 }

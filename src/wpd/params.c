@@ -4,7 +4,6 @@
 #include <string.h>
 
 #include "wpd/radius.h"
-#include "wpd/sharp.h"
 #include "wpd/smooth.h"
 
 void wpd_params_default(wpd_params *p)
@@ -21,7 +20,6 @@ void wpd_params_default(wpd_params *p)
     p->smooth_mode = WPD_SMOOTH_CENTROID;
     p->keep_on_surface = 1;
     p->sharp = 0;
-    p->sharp_threshold = WPD_SHARP_THRESHOLD;
     p->seed = 0;
     p->threads = 0;
 }

@@ -25,7 +25,6 @@ typedef struct wpd_params {
     int smooth_mode;          /* a wpd_smooth_mode (smooth.h): WPD_SMOOTH_CENTROID */
     int keep_on_surface;      /* 1: project smoothed samples onto the input surface (on) */
     int sharp;                /* 1: detect sharp features, sample them at r/2 (off) */
-    double sharp_threshold;   /* surface variation above which a point is sharp */
     double resolution[3];     /* the output stores coordinates as multiples of these
                                  per axis in the block frame (a LAS scale, when the
                                  block's origin is an input point); 0: exact (0) */

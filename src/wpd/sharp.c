@@ -1,4 +1,5 @@
-/* sharp.c - surface-variation edge detector. */
+/* sharp.c - the sharp-feature detector (sharp.h): bounded, ordered
+ * neighbourhoods, the local spacing, and the crease test on each point. */
 #include "wpd/sharp.h"
 
 #include <math.h>
@@ -6,37 +7,12 @@
 #include <string.h>
 
 #include "core/knn.h"
-#include "core/pca.h"
-
-void wpd_detect_sharp(const wpd_grid *surface, size_t n, int k, double threshold,
-                      uint8_t *edge, int threads)
-{
-    if (threads <= 0)
-        threads = omp_get_max_threads();
-    k = wpd_knn_clamp_k(k);
-    /* Visit slots (cell order, cache friendly) and write by source index. */
-    size_t slots = surface->n;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
-    for (size_t s = 0; s < slots; s++) {
-        uint32_t id = surface->id[s];
-        if (id >= n)
-            continue;
-        uint32_t near[WPD_KNN_MAX];
-        /* k nearest including the point itself (distance 0 comes first). */
-        int got = wpd_knn_slots(surface, surface->xyz + 3 * s, k, WPD_NO_SELF, INFINITY, 0,
-                                near, NULL);
-        double pts[3 * WPD_KNN_MAX];
-        for (int j = 0; j < got; j++)
-            memcpy(pts + 3 * j, surface->xyz + 3 * (size_t)near[j], 3 * sizeof(double));
-        wpd_plane pl;
-        wpd_plane_fit(pts, NULL, got, &pl);
-        edge[id] = got >= 3 && pl.variation > threshold;
-    }
-}
+#include "wpd/crease.h"
 
 /* ---- Bounded neighbourhoods ---------------------------------------------- */
 
-/* The best neighbours so far, sorted by (d2, x, y, z). */
+/* The best neighbours so far: a max-heap by (d2, x, y, z) while the box
+ * grows (an offer costs log k, not k), sorted ascending at the end. */
 typedef struct capped_best {
     int k, cnt;
     double bound;   /* squared distance no new point may reach or exceed:
@@ -59,22 +35,58 @@ static inline int before(double da, const double *pa, double db, const double *p
     return 0;
 }
 
+static inline void swap_entries(capped_best *h, int i, int j)
+{
+    double d = h->d2[i];
+    const double *p = h->p[i];
+    h->d2[i] = h->d2[j], h->p[i] = h->p[j];
+    h->d2[j] = d, h->p[j] = p;
+}
+
+/* Restores the heap below entry i of the first n entries. */
+static void sift_down(capped_best *h, int i, int n)
+{
+    for (;;) {
+        int c = 2 * i + 1;
+        if (c >= n)
+            return;
+        if (c + 1 < n && before(h->d2[c], h->p[c], h->d2[c + 1], h->p[c + 1]))
+            c++;
+        if (!before(h->d2[i], h->p[i], h->d2[c], h->p[c]))
+            return;
+        swap_entries(h, i, c);
+        i = c;
+    }
+}
+
 static void offer(capped_best *h, double d2, const double *p, double cap2)
 {
     if (d2 >= cap2)
         return;
-    if (h->cnt == h->k && !before(d2, p, h->d2[h->k - 1], h->p[h->k - 1]))
+    if (h->cnt < h->k) { /* sift the new last entry up */
+        int i = h->cnt++;
+        h->d2[i] = d2, h->p[i] = p;
+        while (i > 0 && before(h->d2[(i - 1) / 2], h->p[(i - 1) / 2], d2, p)) {
+            swap_entries(h, i, (i - 1) / 2);
+            i = (i - 1) / 2;
+        }
+    } else if (before(d2, p, h->d2[0], h->p[0])) { /* replace the largest */
+        h->d2[0] = d2, h->p[0] = p;
+        sift_down(h, 0, h->cnt);
+    } else {
         return;
-    int j = h->cnt < h->k ? h->cnt++ : h->k - 1;
-    while (j > 0 && before(d2, p, h->d2[j - 1], h->p[j - 1])) {
-        h->d2[j] = h->d2[j - 1];
-        h->p[j] = h->p[j - 1];
-        j--;
     }
-    h->d2[j] = d2;
-    h->p[j] = p;
     if (h->cnt == h->k)
-        h->bound = h->d2[h->k - 1];
+        h->bound = h->d2[0];
+}
+
+/* The heap in ascending (d2, x, y, z) order. */
+static void sort_best(capped_best *h)
+{
+    for (int n = h->cnt; n > 1; n--) {
+        swap_entries(h, 0, n - 1);
+        sift_down(h, 0, n - 1);
+    }
 }
 
 /* Offers every grid point in the cells overlapping [q - rho, q + rho];
@@ -105,34 +117,96 @@ static int offer_box(const wpd_grid *g, const double q[3], double rho, double ca
 }
 
 /* The k nearest grid points closer than cap to q, in (d2, x, y, z) order.
- * Boxes grow from one cell until the k-th distance is within the box's
+ * Boxes grow from half a cell until the k-th distance is within the box's
  * half-width (every point outside is farther), the box reaches cap (every
  * point closer than cap has been seen) or covers the grid. */
 static int capped_knn(const wpd_grid *g, const double q[3], int k, double cap, capped_best *h)
 {
     double cap2 = cap * cap;
-    double rho = g->cell < cap ? g->cell : cap;
+    double rho = g->cell / 2 < cap ? g->cell / 2 : cap;
     h->k = k;
     for (;;) {
         h->cnt = 0;
         h->bound = cap2;
         int all = offer_box(g, q, rho, cap2, h);
-        if (all || rho >= cap || (h->cnt == k && h->d2[k - 1] <= rho * rho))
+        if (all || rho >= cap || (h->cnt == k && h->d2[0] <= rho * rho)) {
+            sort_best(h);
             return h->cnt;
+        }
         rho *= 2;
-        if (h->cnt == k && sqrt(h->d2[k - 1]) > rho)
-            rho = sqrt(h->d2[k - 1]);
+        if (h->cnt == k && sqrt(h->d2[0]) > rho)
+            rho = sqrt(h->d2[0]);
         if (rho > cap)
             rho = cap;
     }
 }
 
-void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, int k, double cap,
-                             double threshold, uint8_t *edge, int threads)
+/* The k nearest grid points closer than radius to q, in (d2, x, y, z)
+ * order: one box, as every such point lies in it. */
+static int within(const wpd_grid *g, const double q[3], int k, double radius, capped_best *h)
+{
+    h->k = k;
+    h->cnt = 0;
+    h->bound = radius * radius;
+    offer_box(g, q, radius, radius * radius, h);
+    sort_best(h);
+    return h->cnt;
+}
+
+/* The nearest points (up to WPD_KNN_MAX) closer than both cap and
+ * WPD_SHARP_REACH spacings to q, the spacing from the
+ * WPD_SHARP_SPACING_K-th neighbour closer than cap. Mostly one box query:
+ * the first, of a radius chosen for speed only (about a grid cell), gives
+ * the spacing and, when it reaches as far or is full, the answer. Returns
+ * the points (0 when fewer than WPD_SHARP_SPACING_K + 1 lie within cap). */
+static int neighbourhood(const wpd_grid *g, const double q[3], double cap, capped_best *h,
+                         double *spacing)
+{
+    double first = fmin(cap, 1.2 * g->cell);
+    int got = within(g, q, WPD_KNN_MAX, first, h);
+    double d2k;
+    if (got > WPD_SHARP_SPACING_K) {
+        d2k = h->d2[WPD_SHARP_SPACING_K];
+    } else if (capped_knn(g, q, WPD_SHARP_SPACING_K + 1, cap, h) > WPD_SHARP_SPACING_K) {
+        d2k = h->d2[WPD_SHARP_SPACING_K];
+        got = 0; /* h holds the spacing query now */
+    } else {
+        return 0;
+    }
+    /* k points within d_k of a point of a surface: a disc of k / (pi d_k^2)
+     * points per unit area; the spacing is one over its square root. */
+    *spacing = sqrt(d2k * M_PI / WPD_SHARP_SPACING_K);
+    double reach = fmin(WPD_SHARP_REACH * *spacing, cap);
+    if (reach > first && got < WPD_KNN_MAX)
+        return within(g, q, WPD_KNN_MAX, reach, h);
+    int m = 0; /* the first query's points within reach: a prefix */
+    while (m < got && h->d2[m] < reach * reach)
+        m++;
+    return m;
+}
+
+/* The label of the point at q: the crease test on its neighbourhood. */
+static int label_point(const wpd_grid *g, const double q[3], double cap, wpd_crease_verdict *why)
+{
+    capped_best h;
+    double spacing;
+    int got = neighbourhood(g, q, cap, &h, &spacing);
+    if (!got) {
+        *why = WPD_CREASE_SMALL_FACE;
+        return 0;
+    }
+    double pts[3 * WPD_KNN_MAX];
+    for (int j = 0; j < got; j++)
+        memcpy(pts + 3 * j, h.p[j], 3 * sizeof(double));
+    *why = wpd_crease_test(pts, got, q, spacing);
+    return *why == WPD_CREASE_ON;
+}
+
+void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, double cap,
+                             uint8_t *edge, int threads)
 {
     if (threads <= 0)
         threads = omp_get_max_threads();
-    k = wpd_knn_clamp_k(k);
     size_t slots = surface->n;
     /* Each label is computed on its own from its neighbourhood: any
      * schedule gives the same labels. */
@@ -141,17 +215,20 @@ void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, 
         uint32_t id = surface->id[s];
         if (id < begin || id >= end)
             continue;
-        capped_best h;
-        int got = capped_knn(surface, surface->xyz + 3 * s, k, cap, &h);
-        if (got < WPD_SHARP_MIN_POINTS) {
-            edge[id] = 0;
-            continue;
-        }
-        double pts[3 * WPD_KNN_MAX];
-        for (int j = 0; j < got; j++)
-            memcpy(pts + 3 * j, h.p[j], 3 * sizeof(double));
-        wpd_plane pl;
-        wpd_plane_fit(pts, NULL, got, &pl);
-        edge[id] = pl.variation > threshold;
+        wpd_crease_verdict why;
+        edge[id] = (uint8_t)label_point(surface, surface->xyz + 3 * s, cap, &why);
+    }
+}
+
+void wpd_sharp_verdicts(const wpd_grid *surface, double cap, uint8_t *verdict, int threads)
+{
+    if (threads <= 0)
+        threads = omp_get_max_threads();
+    size_t slots = surface->n;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
+    for (size_t s = 0; s < slots; s++) {
+        wpd_crease_verdict why;
+        label_point(surface, surface->xyz + 3 * s, cap, &why);
+        verdict[surface->id[s]] = (uint8_t)why;
     }
 }

@@ -1,7 +1,8 @@
 """End-to-end tests of the one resampling driver: a cloud held in memory
 and the same cloud cut into tiles give the same samples (byte-identical
-without smoothing, for both radius estimates, with and without --sharp, on
-every real scan), and with smoothing the same quality."""
+without smoothing, for both radius estimates, with and without --sharp (and
+its labels, --edge-label), on every real scan), and with smoothing the same
+quality."""
 import filecmp
 import json
 import os
@@ -32,7 +33,7 @@ def test_tiles_give_the_in_memory_bytes_on_every_scan():
     for src in scans():
         ext = os.path.splitext(src)[1]
         for estimate in ("multiscale", "paper"):
-            for sharp in ((), ("--sharp",)):
+            for sharp in ((), ("--sharp", "--edge-label")):
                 opts = ("--no-smooth", "--radius-estimate", estimate, *sharp)
                 one = resample(src, "one" + ext, 5000, *opts)
                 tiled = resample(src, "tiled" + ext, 5000, "--min-tiles", 16, *opts)

@@ -91,7 +91,7 @@ static void world_init(world *w, const cloud *c, int labels, uint64_t seed)
         wpd_grid g = {0};
         wpd_error err;
         if (wpd_grid_build_knn(&g, c->xyz, NULL, n, SHARP_K, 0.5, 1, &err) == 0)
-            wpd_detect_sharp_capped(&g, 0, n, SHARP_K, w->r, WPD_SHARP_THRESHOLD, w->edge, 1);
+            wpd_detect_sharp_capped(&g, 0, n, w->r, w->edge, 1);
         wpd_grid_free(&g);
     }
     /* The reference: one block, every point, true labels. */
@@ -191,7 +191,7 @@ static long run_block(world *w, int b, int use_others, const uint8_t *snap, uint
         wpd_error err;
         if (wpd_grid_build_knn(&g, w->local_xyz, NULL, nview, SHARP_K, 0.5, 1, &err) < 0)
             return -1;
-        wpd_detect_sharp_capped(&g, 0, nview, SHARP_K, r, WPD_SHARP_THRESHOLD, w->local_edge, 1);
+        wpd_detect_sharp_capped(&g, 0, nview, r, w->local_edge, 1);
         wpd_grid_free(&g);
         for (size_t j = 0; j < nview; j++) {
             uint32_t i = w->view[j];

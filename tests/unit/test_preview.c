@@ -420,3 +420,44 @@ TEST(preview_real_scan_if_present)
     CHECK(img.rgb && drawn_pixels(img.rgb, img.width, 0, 0, img.width, img.height) > 5000);
     wpd_preview_image_free(&img);
 }
+
+TEST(preview_label_colours_red_and_crop_draws_a_part)
+{
+    /* The scene coloured by its red channel as a label: red where it is
+     * not 0 (x below 255/256 of the extent), grey elsewhere; a crop to the
+     * left half draws about half the points. */
+    char in[512];
+    tmp_path(in, sizeof in, "pv_label.ply");
+    CHECK(write_scene(in, 100, 1.0, 1, RGB8) == 10000);
+    wpd_preview_options opt;
+    wpd_preview_defaults(&opt);
+    opt.width = 300;
+    opt.height = 200;
+    opt.label = "green"; /* 60 everywhere: every point labelled */
+    wpd_preview_image img;
+    wpd_preview_summary s;
+    wpd_error err = {0};
+    const char *paths[1] = {in};
+    CHECK_MSG(wpd_preview_render(paths, 1, &opt, &img, &s, &err) == 0, "%s", err.msg);
+    CHECK(s.panel[0].labelled == s.panel[0].drawn && !strcmp(s.label, "green"));
+    int red = 0, grey = 0;
+    for (size_t i = 0; img.rgb && i < (size_t)img.width * img.height; i++) {
+        const uint8_t *p = img.rgb + 3 * i;
+        red |= p[0] > 100 && p[1] < 40 && p[2] < 40;
+        grey |= p[0] == p[1] && p[1] == p[2] && p[0] < 200;
+    }
+    CHECK_MSG(red && !grey, "red %d grey %d", red, grey);
+    wpd_preview_image_free(&img);
+    opt.label = "blue";  /* 0 at x = 0 only */
+    opt.crop = 1;
+    opt.crop_lo[0] = 512000, opt.crop_lo[1] = 4300000;
+    opt.crop_hi[0] = 512050, opt.crop_hi[1] = 4300100;
+    CHECK_MSG(wpd_preview_render(paths, 1, &opt, &img, &s, &err) == 0, "%s", err.msg);
+    CHECK_MSG(s.panel[0].points == 5000, "%llu points in the crop",
+              (unsigned long long)s.panel[0].points);
+    CHECK(s.panel[0].labelled == s.panel[0].drawn - 100); /* the column x = 0 */
+    wpd_preview_image_free(&img);
+    opt.label = "nothing";
+    CHECK(wpd_preview_render(paths, 1, &opt, &img, &s, &err) == -1 && err.code == WPD_E_USAGE);
+    wpd_preview_image_free(&img);
+}

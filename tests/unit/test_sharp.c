@@ -1,8 +1,11 @@
-/* test_sharp.c - sharp-feature labels on capped neighbourhoods: a point's
- * label depends only on the points within the cap, so a block labels its
- * points (and its inner halo) as the whole cloud does. */
+/* test_sharp.c - the sharp-feature detector: the crease test on folded
+ * surfaces, labels on capped neighbourhoods that depend only on the points
+ * within the cap (so a block labels its points, and its inner halo, as the
+ * whole cloud does), and precision and recall against the ground truth of
+ * `wpd synth --edge-truth`. */
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -10,23 +13,117 @@
 #include "core/grid.h"
 #include "core/knn.h"
 #include "harness.h"
+#include "io/cloud.h"
+#include "synth.h"
+#include "wpd/crease.h"
 #include "wpd/sharp.h"
-
-#define SHARP_K 13
 
 static void detect(const double *xyz, size_t n, double cap, int threads, uint8_t *edge)
 {
     wpd_grid g = {0};
     wpd_error err;
-    if (wpd_grid_build_knn(&g, xyz, NULL, n, SHARP_K, 0.5, threads, &err) == 0)
-        wpd_detect_sharp_capped(&g, 0, n, SHARP_K, cap, WPD_SHARP_THRESHOLD, edge, threads);
+    if (wpd_grid_build(&g, xyz, NULL, n, 0.5, threads, &err) == 0)
+        wpd_detect_sharp_capped(&g, 0, n, cap, edge, threads);
     wpd_grid_free(&g);
+}
+
+/* A roof-like surface over [0, 12]^2 with spacing about h: ridges along y
+ * at x = 3 and 9, valleys at x = 0, 6 and 12, slopes `slope`, noise sd
+ * `noise`, points jittered off a grid. Distance from (x, y) in plan to the
+ * nearest crease line: |x - nearest multiple of 3|. */
+static cloud folds(double h, double slope, double noise, uint64_t seed)
+{
+    size_t side = (size_t)(12 / h), n = side * side;
+    cloud c = {n, malloc(3 * n * sizeof(double)), malloc(n * sizeof(uint64_t))};
+    uint64_t st = seed;
+    for (size_t j = 0; j < side; j++)
+        for (size_t i = 0; i < side; i++) {
+            double *p = c.xyz + 3 * (j * side + i);
+            p[0] = h * (i + 0.3 * unit(&st));
+            p[1] = h * (j + 0.3 * unit(&st));
+            double u = fmod(p[0], 6.0);
+            p[2] = slope * (u < 3 ? u : 6 - u) + noise * gauss(&st);
+            c.gid[j * side + i] = j * side + i;
+        }
+    return c;
+}
+
+static double crease_plan_dist(const double *p)
+{
+    double u = fmod(p[0], 3.0);
+    return fmin(u, 3 - u);
+}
+
+TEST(sharp_labels_the_creases_of_a_folded_surface_and_nothing_else)
+{
+    /* Slopes of 0.5 (dihedral 2 atan 0.5 = 53 degrees) and 0.2 (23, below
+     * the 30 degree minimum); noise a tenth of the spacing. */
+    for (int gentle = 0; gentle < 2; gentle++) {
+        cloud c = folds(0.1, gentle ? 0.2 : 0.5, 0.01, 4);
+        uint8_t *e = calloc(c.n, 1);
+        detect(c.xyz, c.n, INFINITY, 2, e);
+        size_t on = 0, on_hit = 0, off_hit = 0;
+        for (size_t i = 0; i < c.n; i++) {
+            const double *p = c.xyz + 3 * i;
+            if (p[0] < 0.8 || p[0] > 11.2 || p[1] < 0.8 || p[1] > 11.2)
+                continue; /* the cloud's border */
+            double d = crease_plan_dist(p);
+            if (d < 0.02)
+                on++, on_hit += e[i];
+            else if (d > 0.1)
+                off_hit += e[i];
+        }
+        if (gentle) {
+            CHECK_MSG(on_hit == 0 && off_hit == 0, "23 degree creases: %zu + %zu labelled",
+                      on_hit, off_hit);
+        } else {
+            CHECK_MSG(on > 100 && on_hit > 0.9 * on, "%zu of %zu crease points labelled",
+                      on_hit, on);
+            CHECK_MSG(off_hit < on / 20, "%zu points off the creases labelled", off_hit);
+        }
+        free(e);
+        cloud_free(&c);
+    }
+}
+
+TEST(sharp_crease_test_rejects_volumes_and_planes)
+{
+    CHECK(fabs(cos(WPD_CREASE_MIN_DEGREES * M_PI / 180) - WPD_CREASE_COS_MIN) < 1e-15);
+    uint64_t st = 9;
+    double pts[3 * 64], p[3] = {0, 0, 0};
+    /* A blob (a tree crown, multiple returns). */
+    for (int i = 0; i < 64; i++)
+        for (int a = 0; a < 3; a++)
+            pts[3 * i + a] = 0.3 * gauss(&st);
+    CHECK(wpd_crease_test(pts, 64, p, 0.1) != WPD_CREASE_ON);
+    /* A plane. */
+    for (int i = 0; i < 64; i++) {
+        pts[3 * i] = unit(&st) - 0.5, pts[3 * i + 1] = unit(&st) - 0.5;
+        pts[3 * i + 2] = 0.3 * pts[3 * i] + 0.002 * gauss(&st);
+    }
+    CHECK(wpd_crease_test(pts, 64, p, 0.1) == WPD_CREASE_FLAT);
+    /* Two planes crossing (an X, not a fold). */
+    for (int i = 0; i < 64; i++) {
+        double t = 2 * unit(&st) - 1, y = unit(&st) - 0.5;
+        pts[3 * i] = t, pts[3 * i + 1] = y, pts[3 * i + 2] = i % 2 ? t : -t;
+    }
+    CHECK(wpd_crease_test(pts, 64, p, 0.1) != WPD_CREASE_ON);
+    /* A right-angle fold, p on its line. */
+    for (int i = 0; i < 64; i++) {
+        double t = unit(&st), y = unit(&st) - 0.5;
+        pts[3 * i] = i % 2 ? t : 0, pts[3 * i + 1] = y, pts[3 * i + 2] = i % 2 ? 0 : t;
+    }
+    CHECK(wpd_crease_test(pts, 64, p, 0.1) == WPD_CREASE_ON);
+    double q[3] = {0.3, 0, 0};
+    CHECK(wpd_crease_test(pts, 64, q, 0.1) == WPD_CREASE_NEAR);
 }
 
 TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
 {
-    for (int kind = 0; kind < NKINDS; kind++) {
-        cloud c = make_cloud(kind, 4000, 5);
+    for (int kind = 0; kind < 3; kind++) {
+        cloud c = kind == 2 ? folds(0.25, 0.6, 0.02, 5) : make_cloud(kind == 0 ? PLANE : QUANTISED,
+                                                                     4000, 5);
+        const char *name = kind == 2 ? "folds" : kind_name[kind == 0 ? PLANE : QUANTISED];
         size_t n = c.n;
         uint8_t *a = malloc(n), *b = malloc(n), *p = malloc(n), *blk = malloc(n);
         double *shuffled = malloc(3 * n * sizeof(double));
@@ -37,7 +134,7 @@ TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
             sharp += a[i];
         /* Threads. */
         detect(c.xyz, n, 1.0, 4, b);
-        CHECK_MSG(memcmp(a, b, n) == 0, "%s: labels depend on the threads", kind_name[kind]);
+        CHECK_MSG(memcmp(a, b, n) == 0, "%s: labels depend on the threads", name);
         /* Point order (ties among equal distances must not follow it). */
         uint64_t st = 3;
         for (size_t i = 0; i < n; i++)
@@ -54,7 +151,7 @@ TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
         size_t moved = 0;
         for (size_t i = 0; i < n; i++)
             moved += p[i] != a[perm[i]];
-        CHECK_MSG(moved == 0, "%s: %zu labels change with the point order", kind_name[kind], moved);
+        CHECK_MSG(moved == 0, "%s: %zu labels change with the point order", name, moved);
         /* Blocks: own points first, then the halo within H; labels exact
          * for every point closer than H - cap to the box. */
         double H = 2.5, cap = 1.0;
@@ -62,13 +159,11 @@ TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
         for (int t = 0; t < 4; t++) {
             box bx;
             for (int k = 0; k < 3; k++) {
-                bx.lo[k] = (kind == BLOB ? -4 : 0) + 6 * unit(&st);
-                bx.hi[k] = bx.lo[k] + 2 + 6 * unit(&st);
+                bx.lo[k] = 6 * unit(&st);
+                bx.hi[k] = bx.lo[k] + 2 + 4 * unit(&st);
             }
-            if (kind != BLOB) { /* across the plane or the lattice's slab */
-                bx.lo[2] = -1;
-                bx.hi[2] = 0.2 + 2 * unit(&st);
-            }
+            bx.lo[2] = -1; /* across the whole height */
+            bx.hi[2] = 8;
             size_t nown = 0, m = 0;
             for (int pass = 0; pass < 2; pass++)
                 for (size_t i = 0; i < n; i++) {
@@ -82,11 +177,11 @@ TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
                 nown++;
             wpd_grid g = {0};
             wpd_error err;
-            CHECK(wpd_grid_build_knn(&g, shuffled, NULL, m, SHARP_K, 0.5, 2, &err) == 0);
+            CHECK(wpd_grid_build(&g, shuffled, NULL, m, 0.5, 2, &err) == 0);
             /* Own points and the halo separately: the range form. */
             memset(blk, 7, m);
-            wpd_detect_sharp_capped(&g, 0, nown, SHARP_K, cap, WPD_SHARP_THRESHOLD, blk, 2);
-            wpd_detect_sharp_capped(&g, nown, m, SHARP_K, cap, WPD_SHARP_THRESHOLD, blk, 2);
+            wpd_detect_sharp_capped(&g, 0, nown, cap, blk, 2);
+            wpd_detect_sharp_capped(&g, nown, m, cap, blk, 2);
             wpd_grid_free(&g);
             for (size_t j = 0; j < m; j++) {
                 CHECK(blk[j] <= 1);
@@ -96,37 +191,10 @@ TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
                 }
             }
         }
-        CHECK_MSG(wrong == 0 && checked > 100, "%s: %zu of %zu block labels differ",
-                  kind_name[kind], wrong, checked);
-        CHECK_MSG(kind == PLANE || sharp > 0, "%s: no sharp point", kind_name[kind]);
+        CHECK_MSG(wrong == 0 && checked > 100, "%s: %zu of %zu block labels differ", name,
+                  wrong, checked);
+        CHECK_MSG(kind != 2 || sharp > 0, "%s: no sharp point", name);
         free(a); free(b); free(p); free(blk); free(shuffled); free(perm);
         cloud_free(&c);
     }
-}
-
-TEST(sharp_capped_needs_five_points_and_matches_the_uncapped_detector)
-{
-    /* A lone tetrahedron of 4 points (variation well above the threshold)
-     * and a lone cluster of 6: with cap 1, only the cluster can be sharp. */
-    double xyz[3 * 10] = {0, 0, 0, 0.3, 0, 0, 0, 0.3, 0, 0, 0, 0.3,
-                          10, 10, 10, 10.3, 10, 10, 10, 10.3, 10, 10, 10, 10.3,
-                          10.3, 10.3, 10, 10, 10.3, 10.3};
-    uint8_t e[10];
-    detect(xyz, 10, 1.0, 1, e);
-    CHECK(e[0] == 0 && e[1] == 0 && e[2] == 0 && e[3] == 0);
-    CHECK(e[4] == 1 && e[9] == 1);
-    /* With no cap and no equal distances, the same neighbours in the same
-     * order as wpd_detect_sharp: the same labels. */
-    cloud c = make_cloud(BLOB, 3000, 8);
-    uint8_t *a = malloc(c.n), *b = malloc(c.n);
-    wpd_grid g = {0};
-    wpd_error err;
-    CHECK(wpd_grid_build_knn(&g, c.xyz, NULL, c.n, SHARP_K, 0.5, 2, &err) == 0);
-    wpd_detect_sharp(&g, c.n, SHARP_K, WPD_SHARP_THRESHOLD, a, 2);
-    wpd_detect_sharp_capped(&g, 0, c.n, SHARP_K, INFINITY, WPD_SHARP_THRESHOLD, b, 2);
-    wpd_grid_free(&g);
-    CHECK(memcmp(a, b, c.n) == 0);
-    free(a);
-    free(b);
-    cloud_free(&c);
 }

@@ -547,7 +547,7 @@ TEST(wpd_sharp_detector_finds_a_crease)
     wpd_error err;
     CHECK(wpd_grid_build(&g, xyz, NULL, n, 0.2, 2, &err) == 0);
     uint8_t *edge = calloc(n, 1);
-    wpd_detect_sharp(&g, n, 13, WPD_SHARP_THRESHOLD, edge, 2);
+    wpd_detect_sharp_capped(&g, 0, n, INFINITY, edge, 2);
     size_t near = 0, near_hit = 0, far_hit = 0;
     for (size_t i = 0; i < n; i++) {
         double d = fmin(fabs(xyz[3 * i]), fabs(xyz[3 * i + 2]));

@@ -1,0 +1,58 @@
+/* crease.h - whether a point lies on a crease of the surface its
+ * neighbourhood samples: the geometric test behind the sharp-feature
+ * detector (sharp.h), on one neighbourhood at a time.
+ *
+ * A crease is where two planar faces meet at a dihedral angle of at least
+ * WPD_CREASE_MIN_DEGREES. The neighbourhood is split into two faces (by
+ * the side of its middle principal axis, then points moved to the nearer
+ * plane until the split is stable), and it is a crease when
+ *   - each face holds WPD_CREASE_MIN_FACE points or more and is planar: the
+ *     RMS distance to its plane is at most WPD_CREASE_FLATNESS x the
+ *     spacing, and at most a tenth of its points lie farther than three
+ *     times that (vegetation, multiple returns and noise fail here: their
+ *     neighbourhoods are not two planes);
+ *   - the normals are WPD_CREASE_MIN_DEGREES or more apart;
+ *   - the faces lie on either side of the line where their planes meet
+ *     (a fold, not two planes crossing), each within its plane: at most a
+ *     tenth of a face's points lie beyond the line by more than three
+ *     times the flatness.
+ * The point is on the crease when it is within half the spacing of that
+ * line: the band of the ground truth of `wpd synth --edge-truth`, half the
+ * point spacing. A neighbourhood that is one plane (surface variation below
+ * WPD_CREASE_MIN_VARIATION) is no crease, whatever its border: a crease one
+ * of whose faces carries no points cannot be located from the points. One
+ * whose surface variation exceeds WPD_CREASE_MAX_VARIATION is a volume (a
+ * crown, a cluster of returns), rejected before the split, the costly part:
+ * a ball around a point of a crease has a variation of at most 0.09 when
+ * the normals are 90 degrees apart, 0.14 at 120.
+ */
+#ifndef WPD_CREASE_H
+#define WPD_CREASE_H
+
+#define WPD_CREASE_MIN_DEGREES 30.0
+/* Its cosine (a literal: cos() in the test costs a few percent; the unit
+ * tests check that the two agree). */
+#define WPD_CREASE_COS_MIN 0.86602540378443865
+#define WPD_CREASE_MIN_FACE 5
+#define WPD_CREASE_FLATNESS 0.15
+#define WPD_CREASE_MIN_VARIATION 0.004
+#define WPD_CREASE_MAX_VARIATION 0.15
+
+/* Why a neighbourhood is or is not a crease (for measurements). */
+typedef enum wpd_crease_verdict {
+    WPD_CREASE_ON = 0,     /* on the crease: within the band of its line */
+    WPD_CREASE_NEAR,       /* a crease, the point farther than the band */
+    WPD_CREASE_FLAT,       /* one plane */
+    WPD_CREASE_SMALL_FACE, /* a face with too few points */
+    WPD_CREASE_ROUGH,      /* a face not planar: not two planes */
+    WPD_CREASE_SHALLOW,    /* faces less than the minimum angle apart */
+    WPD_CREASE_CROSSING,   /* faces not on either side of their line */
+    WPD_CREASE_VERDICTS
+} wpd_crease_verdict;
+
+/* The verdict on point p (one of the m points pts[3 m], the neighbourhood,
+ * in a fixed order: the result depends on it only through rounding) for a
+ * local point spacing `spacing` (> 0). m <= 64 (more are ignored). */
+wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], double spacing);
+
+#endif
