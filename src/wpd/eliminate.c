@@ -229,25 +229,12 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
     free(keys);
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* The order of deletion: the squared cost, relative to the sample's own
  * radius (a sample of radius r/2 costs 4 times its squared hole). */
 static double rank_of(const wpd_eliminate *e, uint32_t s)
 {
     double c = double_of(e->cost[s]);
     return e->half && e->half[s] ? 4 * c : c;
-}
-
-/* (rank, index) order. */
-static int before(const wpd_eliminate *e, uint32_t a, uint32_t b)
-{
-    double ra = rank_of(e, a), rb = rank_of(e, b);
-    return ra < rb || (ra == rb && a < b);
 }
 
 /* 1 if no sample marked in taken lies within twice the larger of its cost
@@ -279,28 +266,23 @@ static int clear_around(const wpd_eliminate *e, const uint8_t *taken, double tak
     return 1;
 }
 
-/* Sorts idx[0..m-1] by (rank, index) (a bottom-up merge sort: qsort's
- * comparison could not reach the costs without global state). */
-static int sort_by_cost(const wpd_eliminate *e, uint32_t *idx, size_t m)
+/* The live samples in (rank, index) order into val[0..live-1], their ranks'
+ * bits in key (ranks are >= 0, so the integer order of the bits is the
+ * numeric order; one stable radix sort of the ascending indices). key and
+ * val hold 2 x live entries (the upper halves are scratch). */
+static void by_rank(const wpd_eliminate *e, uint64_t *key, uint32_t *val)
 {
-    uint32_t *tmp = malloc((m ? m : 1) * sizeof *tmp);
-    if (!tmp)
-        return -1;
-    for (size_t w = 1; w < m; w *= 2) {
-        for (size_t lo = 0; lo < m; lo += 2 * w) {
-            size_t mid = lo + w < m ? lo + w : m, hi = lo + 2 * w < m ? lo + 2 * w : m;
-            size_t i = lo, j = mid, k = lo;
-            while (i < mid && j < hi)
-                tmp[k++] = before(e, idx[j], idx[i]) ? idx[j++] : idx[i++];
-            while (i < mid)
-                tmp[k++] = idx[i++];
-            while (j < hi)
-                tmp[k++] = idx[j++];
-        }
-        memcpy(idx, tmp, m * sizeof *idx);
+    size_t m = e->live;
+    uint64_t top = 0;
+    for (size_t i = 0; i < m; i++) {
+        val[i] = e->live_idx[i];
+        key[i] = bits_of(rank_of(e, val[i]));
+        top |= key[i];
     }
-    free(tmp);
-    return 0;
+    int bits = 1;
+    while (bits < 64 && top >> bits)
+        bits++;
+    wpd_radix_sort_u64(key, val, m, bits, key + m, val + m);
 }
 
 long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
@@ -308,14 +290,14 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
     if (e->live <= target)
         return 0;
     size_t quota = e->live - target, m = e->live;
-    double *sorted = malloc(m * sizeof *sorted);
-    uint32_t *cand = malloc(m * sizeof *cand);
+    uint64_t *key = malloc(2 * m * sizeof *key);
+    uint32_t *cand = malloc(2 * m * sizeof *cand);
     uint8_t *taken = calloc(e->n, 1);
-    if (!sorted || !cand || !taken)
-        goto oom;
-    for (size_t i = 0; i < m; i++)
-        sorted[i] = rank_of(e, e->live_idx[i]);
-    qsort(sorted, m, sizeof *sorted, cmp_double);
+    if (!key || !cand || !taken) {
+        free(key), free(cand), free(taken);
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
+    }
+    by_rank(e, key, cand);
     /* Candidates: the samples up to the cost of rank quota + min(quota,
      * m / 20). Up to rank quota alone, crowded neighbourhoods (whose
      * cheapest samples lie close together) left most of the quota to later
@@ -324,13 +306,10 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
      * samples that opened holes (Hausdorff 0.0033 of the diagonal against
      * 0.0013). */
     size_t rank = quota + (quota < m / 20 ? quota : m / 20);
-    double tau = sorted[(rank < m ? rank : m) - 1];
+    uint64_t tau = key[(rank < m ? rank : m) - 1];
     size_t nc = 0;
-    for (size_t i = 0; i < m; i++)
-        if (rank_of(e, e->live_idx[i]) <= tau)
-            cand[nc++] = e->live_idx[i];
-    if (sort_by_cost(e, cand, nc))
-        goto oom;
+    while (nc < m && key[nc] <= tau)
+        nc++;
     /* In (rank, index) order, each candidate clear of those taken before:
      * no two deletions of the sweep touch each other's regions. */
     size_t deleted = 0;
@@ -343,11 +322,8 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
             deleted++;
         }
     e->live -= deleted;
-    free(sorted), free(cand), free(taken);
+    free(key), free(cand), free(taken);
     return (long)deleted;
-oom:
-    free(sorted), free(cand), free(taken);
-    return wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
 }
 
 size_t wpd_eliminate_result(const wpd_eliminate *e, uint32_t *idx)
