@@ -88,34 +88,42 @@ static uint64_t cell_of(const wpd_grid *g, const double *p, int64_t c[3])
     return (uint64_t)c[2] | (uint64_t)c[0] << g->shift_a | (uint64_t)c[1] << g->shift_b;
 }
 
-/* The points to query (skip[i] == 0), sorted by the samples' grid cell, as
- * point indices into *order; returns their count, or -1 (out of memory). */
-static long query_order(const wpd_grid *g, const double *pts, const uint8_t *skip, size_t npts,
-                        uint32_t **order, uint64_t **keys)
+/* Points are queried in blocks of this many, each sorted by the samples'
+ * grid cell on the thread that queries it: the sort and the queries stay
+ * in cache, and no thread waits for one sort of every point. */
+#define QUERY_BLOCK 65536
+
+/* A thread's room to order one block. */
+typedef struct block_order {
+    uint64_t key[2 * QUERY_BLOCK];
+    uint32_t val[2 * QUERY_BLOCK];
+    double xyz[3 * QUERY_BLOCK]; /* the points in that order */
+} block_order;
+
+/* The points of pts[first..first+n-1] to query (skip[i] == 0), sorted by
+ * the samples' grid cell: point indices in o->val, cell keys in o->key,
+ * coordinates in o->xyz. Returns their count. */
+static size_t order_block(const wpd_grid *g, const double *pts, const uint8_t *skip,
+                          size_t first, size_t n, block_order *o)
 {
-    size_t cap = npts ? npts : 1;
-    uint64_t *key = malloc(2 * cap * sizeof *key);
-    uint32_t *val = malloc(2 * cap * sizeof *val);
-    if (!key || !val || npts > UINT32_MAX) {
-        free(key), free(val);
-        return -1;
-    }
     uint64_t top = 0;
     size_t m = 0;
-    for (size_t i = 0; i < npts; i++)
+    for (size_t i = first; i < first + n; i++)
         if (!skip || !skip[i]) {
             int64_t c[3];
-            key[m] = cell_of(g, pts + 3 * i, c);
-            val[m] = (uint32_t)i;
-            top |= key[m++];
+            o->key[m] = cell_of(g, pts + 3 * i, c);
+            o->val[m] = (uint32_t)i;
+            top |= o->key[m++];
         }
     int bits = 1;
     while (bits < 64 && top >> bits)
         bits++;
-    wpd_radix_sort_u64(key, val, m, bits, key + cap, val + cap);
-    *order = val;
-    *keys = key;
-    return (long)m;
+    wpd_radix_sort_u64(o->key, o->val, m, bits, o->key + QUERY_BLOCK, o->val + QUERY_BLOCK);
+    /* Copied in one loop of independent loads, the scattered reads overlap;
+     * inside the queries each would stall them. */
+    for (size_t k = 0; k < m; k++)
+        memcpy(o->xyz + 3 * k, pts + 3 * (size_t)o->val[k], 3 * sizeof *o->xyz);
+    return m;
 }
 
 /* Up to GATHER_MAX samples of the 3 x 3 x 3 cells around a cell. */
@@ -241,49 +249,57 @@ static int two_nearest(const wpd_grid *g, gathered *near, int have, const int64_
     return wpd_knn(g, p, 2, WPD_NO_SELF, INFINITY, hint, idx, d2) == 2;
 }
 
+/* The cost of point p's nearest sample, from its second-nearest. near:
+ * the samples around p's cell c, when have. */
+static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[3],
+                    const double *p)
+{
+    uint32_t idx[2];
+    double d2[2];
+    if (two_nearest(&e->grid, near, have, c, p, 1.5 * e->spacing, idx, d2))
+        atomic_max(&e->cost[idx[0]], bits_of(d2[1]));
+}
+
 void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t *skip,
                               size_t npts, int threads)
 {
     if (e->live < 2)
         return; /* nothing to delete: no second-nearest sample */
-    const wpd_grid *g = &e->grid;
-    uint64_t *cost = e->cost;
-    double hint = 1.5 * e->spacing;
-    uint32_t *order = NULL;
-    uint64_t *keys = NULL;
-    long m = query_order(g, pts, skip, npts, &order, &keys);
+    size_t nblocks = (npts + QUERY_BLOCK - 1) / QUERY_BLOCK;
     /* Queries of one cell share the samples around it (gathered once): the
      * per-query column look-ups were most of the time. Without memory for
      * the order, each point is searched on its own (same result). */
 #pragma omp parallel num_threads(threads > 0 ? threads : e->threads)
     {
         gathered *near = malloc(sizeof *near);
-        uint64_t cur = UINT64_MAX;
-        int have = 0;
-        int64_t c[3] = {0, 0, 0};
-        size_t count = m >= 0 ? (size_t)m : npts;
-#pragma omp for schedule(dynamic, 4096)
-        for (size_t k = 0; k < count; k++) {
-            size_t i = m >= 0 ? order[k] : k;
-            /* The points are visited in cell order, far apart in memory:
-             * fetching one a few queries ahead hides most of the miss. */
-            if (m >= 0 && k + 8 < count)
-                __builtin_prefetch(pts + 3 * (size_t)order[k + 8]);
-            if (m < 0 && skip && skip[i])
+        block_order *o = near ? malloc(sizeof *o) : NULL;
+#pragma omp for schedule(dynamic, 1)
+        for (size_t b = 0; b < nblocks; b++) {
+            size_t first = b * QUERY_BLOCK;
+            size_t n = npts - first < QUERY_BLOCK ? npts - first : QUERY_BLOCK;
+            int64_t c[3] = {0, 0, 0};
+            if (!o) {
+                for (size_t i = first; i < first + n; i++)
+                    if (!skip || !skip[i])
+                        add_one(e, NULL, 0, c, pts + 3 * i);
                 continue;
-            if (m >= 0 && near && keys[k] != cur) {
-                cur = cell_of(g, pts + 3 * i, c);
-                have = gather(g, c, near);
             }
-            uint32_t idx[2];
-            double d2[2];
-            if (two_nearest(g, near, m >= 0 && near && have, c, pts + 3 * i, hint, idx, d2))
-                atomic_max(&cost[idx[0]], bits_of(d2[1]));
+            size_t m = order_block(&e->grid, pts, skip, first, n, o);
+            uint64_t cur = UINT64_MAX;
+            int have = 0;
+            for (size_t k = 0; k < m; k++) {
+                const double *p = o->xyz + 3 * k;
+                if (o->key[k] != cur) {
+                    cur = o->key[k];
+                    cell_of(&e->grid, p, c);
+                    have = gather(&e->grid, c, near);
+                }
+                add_one(e, near, have, c, p);
+            }
         }
+        free(o);
         free(near);
     }
-    free(order);
-    free(keys);
 }
 
 /* The order of deletion: the squared cost, relative to the sample's own
