@@ -8,6 +8,7 @@
 
 #include "core/bits.h"
 #include "core/sort.h"
+#include "common/hugepage.h"
 
 void wpd_point_bounds(const double *xyz, const uint32_t *subset, size_t n, double lo[3], double hi[3],
                 int threads)
@@ -159,7 +160,7 @@ static int build_columns(wpd_grid *g, const uint64_t *sorted_key)
 static int grow(void *pp, size_t bytes)
 {
     void **p = pp;
-    void *q = realloc(*p, bytes ? bytes : 1);
+    void *q = wpd_realloc_large(*p, bytes);
     if (!q)
         return -1;
     *p = q;
@@ -203,9 +204,9 @@ int wpd_grid_build(wpd_grid *g, const double *xyz, const uint32_t *subset,
     }
     int bits = plan_layout(g, hi, cell);
 
-    key = malloc((n ? n : 1) * sizeof *key);
-    tmp_key = malloc((n ? n : 1) * sizeof *tmp_key);
-    tmp_id = malloc((n ? n : 1) * sizeof *tmp_id);
+    key = wpd_malloc_large(n * sizeof *key);
+    tmp_key = wpd_malloc_large(n * sizeof *tmp_key);
+    tmp_id = wpd_malloc_large(n * sizeof *tmp_id);
     if (!key || !tmp_key || !tmp_id)
         goto oom;
     int ax = g->axis[0], bx = g->axis[1], cx = g->axis[2];

@@ -4,12 +4,13 @@
 #include <string.h>
 
 #include "core/hash.h"
+#include "common/hugepage.h"
 
 int wpd_voxel_set_init(wpd_voxel_set *s, size_t cap)
 {
     s->cap = cap;
     s->count = 0;
-    s->slot = malloc(cap * sizeof *s->slot);
+    s->slot = wpd_malloc_large(cap * sizeof *s->slot);
     if (!s->slot) {
         memset(s, 0, sizeof *s);
         return -1;

@@ -4,14 +4,17 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/hugepage.h"
+
 int wpd_tiles_open_memory(wpd_tiles *t, uint64_t capacity, wpd_error *err)
 {
     memset(t, 0, sizeof *t);
     t->ntiles = 1;
     size_t m = capacity ? (size_t)capacity : 1;
-    t->mem.gid = malloc(m * sizeof *t->mem.gid);
-    t->mem.xyz = malloc(3 * m * sizeof *t->mem.xyz);
+    t->mem.gid = wpd_malloc_large(m * sizeof *t->mem.gid);
+    t->mem.xyz = wpd_malloc_large(3 * m * sizeof *t->mem.xyz);
     t->mem.halo = calloc(m, 1);
+    wpd_prefer_huge_pages(t->mem.halo, m);
     t->mem_cap = (size_t)capacity;
     if (!t->mem.gid || !t->mem.xyz || !t->mem.halo) {
         wpd_tiles_close(t);

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core/grid.h"
+#include "common/hugepage.h"
 #include "core/hash.h"
 
 
@@ -363,12 +364,12 @@ static wpd_poisson *prepare(const wpd_poisson_input *in, const uint8_t *blind,
     ps->wanted = wanted;
     ps->threads = in->threads > 0 ? in->threads : omp_get_max_threads();
     size_t m = n ? n : 1;
-    ps->prio = malloc(m * sizeof *ps->prio);
-    ps->band = malloc(m);
-    ps->half = in->edge ? malloc(m) : NULL;
-    ps->kind = blind || wanted ? malloc(m) : NULL;
-    ps->order = malloc(m * sizeof *ps->order);
-    ps->state = malloc(m);
+    ps->prio = wpd_malloc_large(m * sizeof *ps->prio);
+    ps->band = wpd_malloc_large(m);
+    ps->half = in->edge ? wpd_malloc_large(m) : NULL;
+    ps->kind = blind || wanted ? wpd_malloc_large(m) : NULL;
+    ps->order = wpd_malloc_large(m * sizeof *ps->order);
+    ps->state = wpd_malloc_large(m);
     ps->stack_cap = 1024;
     ps->stack = malloc(ps->stack_cap * sizeof *ps->stack);
     ps->hit_cap = 1024;
