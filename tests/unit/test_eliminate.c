@@ -97,6 +97,28 @@ done:
 }
 
 /* Input points beyond the samples' box (outliers) are handed in too. */
+/* The costs by brute force: nearest and second-nearest sample of every
+ * point by (squared distance, index). */
+static double *costs_by_brute_force(const double *xyz, size_t n, const double *s, size_t m)
+{
+    double *want = calloc(m, sizeof *want);
+    for (size_t i = 0; i < n; i++) {
+        size_t a = SIZE_MAX, b = SIZE_MAX;
+        double da = INFINITY, db = INFINITY;
+        for (size_t j = 0; j < m; j++) {
+            double d = dist2(xyz + 3 * i, s + 3 * j);
+            if (d < da) {
+                b = a, db = da, a = j, da = d;
+            } else if (d < db) {
+                b = j, db = d;
+            }
+        }
+        if (b != SIZE_MAX && db > want[a])
+            want[a] = db;
+    }
+    return want;
+}
+
 TEST(eliminate_costs_are_the_holes_the_definition_gives)
 {
     uint64_t *gid;
@@ -112,21 +134,7 @@ TEST(eliminate_costs_are_the_holes_the_definition_gives)
     CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.2, 2, &err) == 0);
     CHECK(wpd_eliminate_begin(&e, &err) == 0);
     wpd_eliminate_add_points(&e, xyz, NULL, n, 2);
-    double *want = calloc(m, sizeof *want);
-    for (size_t i = 0; i < n; i++) { /* nearest and second-nearest, ties by index */
-        size_t a = SIZE_MAX, b = SIZE_MAX;
-        double da = INFINITY, db = INFINITY;
-        for (size_t j = 0; j < m; j++) {
-            double d = dist2(xyz + 3 * i, s + 3 * j);
-            if (d < da) {
-                b = a, db = da, a = j, da = d;
-            } else if (d < db) {
-                b = j, db = d;
-            }
-        }
-        if (b != SIZE_MAX && db > want[a])
-            want[a] = db;
-    }
+    double *want = costs_by_brute_force(xyz, n, s, m);
     size_t wrong = 0;
     for (size_t j = 0; j < m; j++) {
         double got;
@@ -136,6 +144,52 @@ TEST(eliminate_costs_are_the_holes_the_definition_gives)
     CHECK_MSG(wrong == 0, "%zu of %zu costs differ", wrong, m);
     wpd_eliminate_free(&e);
     free(want), free(s), free(xyz), free(gid);
+}
+
+/* Samples on a lattice of step 1 at a large offset (exact ties everywhere,
+ * coordinates whose float rounding is coarse), points at lattice nodes,
+ * midpoints and cell centres (equidistant from 2, 4 or 8 samples) and at
+ * random, some in a hole whose nearest samples lie beyond the cells
+ * gathered around them: more points than one query block, so the float
+ * distances, the blocks and the fall-back search must still give the exact
+ * costs, ties broken by index. */
+TEST(eliminate_costs_are_exact_with_ties_and_many_blocks)
+{
+    size_t side = 24, m = 0, n = 100000;
+    double *s = malloc(3 * side * side * 2 * sizeof *s), *xyz = malloc(3 * n * sizeof *xyz);
+    double off = 4.0e6;
+    for (size_t j = 0; j < side * side * 2; j++) {
+        size_t x = j % side, y = j / side % side;
+        if (x >= 5 && x < 13 && y >= 5 && y < 13) /* a hole: nearest samples beyond the */
+            continue;                             /* cells gathered around a point */
+        s[3 * m] = off + (double)x;
+        s[3 * m + 1] = off + (double)y;
+        s[3 * m++ + 2] = (double)(j / (side * side));
+    }
+    uint64_t st = 17;
+    for (size_t i = 0; i < n; i++) {
+        double h = i % 4 == 3 ? unit(&st) : 0.5 * (double)(i % 3); /* 0, .5, 1 or random */
+        xyz[3 * i] = off + (double)(i % 23) + h;
+        xyz[3 * i + 1] = off + (double)(i / 23 % 23) + (i % 5 == 0 ? 0.5 : h);
+        xyz[3 * i + 2] = i % 7 == 0 ? 0.5 : (double)(i % 2);
+    }
+    double *want = costs_by_brute_force(xyz, n, s, m);
+    for (int threads = 1; threads <= 2; threads++) {
+        wpd_eliminate e;
+        wpd_error err = {0};
+        CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, threads, &err) == 0);
+        CHECK(wpd_eliminate_begin(&e, &err) == 0);
+        wpd_eliminate_add_points(&e, xyz, NULL, n, threads);
+        size_t wrong = 0;
+        for (size_t j = 0; j < m; j++) {
+            double got;
+            memcpy(&got, &e.cost[j], sizeof got);
+            wrong += got != want[j];
+        }
+        CHECK_MSG(wrong == 0, "%zu of %zu costs differ (%d threads)", wrong, m, threads);
+        wpd_eliminate_free(&e);
+    }
+    free(want), free(s), free(xyz);
 }
 
 TEST(eliminate_deletions_of_one_sweep_stay_apart)
