@@ -149,7 +149,7 @@ int wpd_exact_phase(wpd_run *run, wpd_error *err)
         goto done;
     while (e.live > run->opt->target) {
         if (wpd_eliminate_begin(&e, err) ||
-            wpd_run_each_tile(run, NULL, cost_tile, NULL, &e, err) ||
+            wpd_run_tiles_any_order(run, NULL, cost_tile, &e, err) ||
             wpd_eliminate_sweep(&e, run->opt->target, err) < 0)
             goto done;
         run->res->exact_sweeps++;

@@ -67,19 +67,22 @@ int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **o
     return 0;
 }
 
-int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
-                      wpd_colour_fn after_colour, void *arg, wpd_error *err)
+/* Every tile through fn: colour by colour when ordered (after_colour after
+ * each), else all at once in one colour-blind loop. */
+static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                     wpd_colour_fn after_colour, void *arg, int ordered, wpd_error *err)
 {
     int ntiles = run->plan.ntiles;
     int workers = wpd_budget_tile_workers(run->threads, ntiles);
     int inside = wpd_budget_threads_per_tile(run->threads, ntiles);
+    int rounds = ordered ? run->plan.ncolours : 1;
     wpd_first_error fe = {0};
     if (phase)
         wpd_progress_phase(run->opt->progress, phase, (uint64_t)ntiles, "tiles");
-    for (int c = 0; c < run->plan.ncolours && !wpd_first_error_failed(&fe); c++) {
+    for (int c = 0; c < rounds && !wpd_first_error_failed(&fe); c++) {
 #pragma omp parallel for num_threads(workers) schedule(dynamic, 1)
         for (int t = 0; t < ntiles; t++) {
-            if (run->plan.tiles[t].colour != c || wpd_first_error_failed(&fe))
+            if ((ordered && run->plan.tiles[t].colour != c) || wpd_first_error_failed(&fe))
                 continue;
             wpd_error local = {0};
             if (fn(run, t, inside, arg, &local))
@@ -93,4 +96,16 @@ int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
     if (phase)
         wpd_progress_end(run->opt->progress);
     return wpd_first_error_take(&fe, err);
+}
+
+int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                      wpd_colour_fn after_colour, void *arg, wpd_error *err)
+{
+    return run_tiles(run, phase, fn, after_colour, arg, 1, err);
+}
+
+int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
+                            wpd_error *err)
+{
+    return run_tiles(run, phase, fn, NULL, arg, 0, err);
 }

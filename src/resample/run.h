@@ -74,6 +74,13 @@ typedef int (*wpd_colour_fn)(wpd_run *run, int colour, void *arg, wpd_error *err
 int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
                       wpd_colour_fn after_colour, void *arg, wpd_error *err);
 
+/* Runs fn on every tile in any order, as many at once as the threads and
+ * the budget allow, without waiting between colours: for work whose result
+ * does not depend on the order of the tiles (fn sees no other tile's work
+ * of the same call). Returns 0, or -1 with the first failure in err. */
+int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
+                            wpd_error *err);
+
 /* Phases (each in its own file). */
 int wpd_tile_pass(wpd_run *run, wpd_error *err);                 /* tile.c */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err);             /* poisson_pass.c */
