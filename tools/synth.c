@@ -92,7 +92,7 @@ int wpd_synth_generate(const wpd_synth_options *options, wpd_synth_summary *summ
     scene sc;
     synth_scene_init(&sc, opt.seed, opt.points);
     flight fl;
-    if (synth_flight_plan(&fl, &sc, opt.points)) {
+    if (synth_flight_plan(&fl, &sc, opt.points, opt.oblique)) {
         synth_flight_free(&fl);
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", opt.output);
     }
