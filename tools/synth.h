@@ -63,7 +63,7 @@ typedef struct wpd_synth_options {
     int ply_ascii;        /* PLY only: ascii instead of binary little-endian */
     int overwrite;        /* replace existing output files (else refuse) */
     int edge_truth;       /* 1: add the field edge_truth (synth_creases.h) */
-    int oblique;          /* 1: the oblique survey (cross strips, +-40 degrees;
+    int oblique;          /* 1: the oblique survey (cross strips, +-65 degrees;
                              synth_flight.c) instead of the default one */
     const char *output;   /* output path; tile paths are derived from it */
 } wpd_synth_options;

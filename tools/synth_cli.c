@@ -37,7 +37,7 @@ static void usage(FILE *f)
             "               (eaves), 3 wall corner, 4 wall foot; 0 elsewhere (LAS: an\n"
             "               extra byte with its Extra Bytes VLR; PLY: uchar)\n"
             "  --oblique    the oblique survey: strips north/south and east/west, a\n"
-            "               +-40 degree sweep, so walls facing any way carry points\n"
+            "               +-65 degree sweep, so walls facing any way carry points\n"
             "               (the same scene; the point spacing of --edge-truth is then\n"
             "               that of all strips together, about 0.32 m)\n"
             "  --ascii      ascii PLY\n"

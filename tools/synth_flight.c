@@ -10,7 +10,7 @@
 #include <string.h>
 
 #define SCAN_HALF_ANGLE (22.0 * 3.14159265358979323846 / 180.0)
-#define OBLIQUE_HALF_ANGLE (40.0 * 3.14159265358979323846 / 180.0)
+#define OBLIQUE_HALF_ANGLE (65.0 * 3.14159265358979323846 / 180.0)
 #define SWATH_MIN 60.0          /* small scenes are low (UAV-like) surveys */
 #define SWATH_MAX 500.0
 #define SIDE_OVERLAP 0.30
@@ -29,15 +29,16 @@ void synth_flight_free(flight *f)
  * swath and the scan angle.
  *
  * The oblique survey flies at the same height (so over the same scene:
- * the buildings' height limit depends on it) with a sweep of +-40
- * degrees, in strips a quarter of the swath apart in both directions,
- * north/south and east/west, whose tracks extend a quarter swath beyond
- * the scene on either side: every point is seen from about four strips
- * of each direction, and every wall, whichever way it faces, from strips
- * on its side at angles of up to 40 degrees, where the pulses meet it
- * about as densely as the ground (a wall takes tan(angle) times the
- * ground's pulses per square metre of one strip). Walls near the scene's
- * border are seen from strips outside it, as surveys plan their lines. */
+ * the buildings' height limit depends on it) with a sweep of +-65
+ * degrees, the field of view of a UAV or helicopter scanner, in strips a
+ * quarter of the swath apart in both directions, north/south and
+ * east/west, whose tracks extend a quarter swath beyond the scene on
+ * either side: every point is seen from about four strips of each
+ * direction, and every wall, whichever way it faces, from strips on its
+ * side at angles of up to 65 degrees (a wall takes tan(angle) times the
+ * ground's pulses per square metre of one strip, so steep angles are what
+ * samples it). Walls near the scene's border are seen from strips
+ * outside it, as surveys plan their lines. */
 static void plan_strips(flight *f, const scene *sc, int oblique)
 {
     double L = sc->side;
@@ -85,7 +86,7 @@ static void plan_pulses(flight *f, double L, uint64_t points)
 }
 
 /* The mirror's sweep: equal angular steps over -22 .. +22 degrees (the
- * oblique survey: -40 .. +40). */
+ * oblique survey: -65 .. +65). */
 static void plan_sweep(flight *f)
 {
     const int m = f->pulses_per_line;
