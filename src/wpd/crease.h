@@ -12,6 +12,11 @@
  *     times that (vegetation, multiple returns and noise fail here: their
  *     neighbourhoods are not two planes);
  *   - the normals are WPD_CREASE_MIN_DEGREES or more apart;
+ *   - each face is a plane its own points determine: WPD_CREASE_MIN_OWN
+ *     or more of them lie off the other face's plane (farther than the
+ *     flatness tolerance), not all on one line (a single row of points
+ *     and the other face's row nearest the crease make a plane that is
+ *     no surface: its line with the other face runs through that row);
  *   - the faces lie on either side of the line where their planes meet
  *     (a fold, not two planes crossing), each within its plane: at most a
  *     tenth of a face's points lie beyond the line by more than three
@@ -37,6 +42,10 @@
 #define WPD_CREASE_FLATNESS 0.15
 #define WPD_CREASE_MIN_VARIATION 0.004
 #define WPD_CREASE_MAX_VARIATION 0.15
+/* A face's own points (off the other face's plane) and how far one of
+ * them must lie off the line through them, in spacings: crease.c. */
+#define WPD_CREASE_MIN_OWN 3
+#define WPD_CREASE_ROW_WIDTH 0.5
 
 /* Why a neighbourhood is or is not a crease (for measurements). */
 typedef enum wpd_crease_verdict {
@@ -47,6 +56,8 @@ typedef enum wpd_crease_verdict {
     WPD_CREASE_ROUGH,      /* a face not planar: not two planes */
     WPD_CREASE_SHALLOW,    /* faces less than the minimum angle apart */
     WPD_CREASE_CROSSING,   /* faces not on either side of their line */
+    WPD_CREASE_ROW,        /* a face whose own points are one row: its plane is
+                              not determined */
     WPD_CREASE_VERDICTS
 } wpd_crease_verdict;
 
