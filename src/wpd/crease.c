@@ -157,24 +157,31 @@ static int planar(const double *pts, int m, const signed char *side, const face 
     return 1;
 }
 
-/* Whether each face is a plane its own points determine: at least
- * WPD_CREASE_MIN_OWN of its points lie farther than tol from the other
- * face's plane, and not all of those on one line (one at least
+/* Whether each steep face (its normal more than 45 degrees from z, the
+ * vertical of georeferenced scans) is a plane its own points determine:
+ * at least WPD_CREASE_MIN_OWN of its points lie off the other face's
+ * plane (farther than twice the flatness tolerance, beyond the ranging
+ * noise), and not all of those on one line (one at least
  * WPD_CREASE_ROW_WIDTH x spacing off the line through their centroid
- * along their largest axis). A face of one row of points (a wall an
- * airborne survey crosses in rows a metre apart, one row within reach)
- * and the row of the other face nearest the crease lie on a plane that
- * is no surface of the scene: the line where it meets the other face
- * runs through that row, which is as likely to lie a spacing from the
- * crease as on it (such labels were right 41 % of the time on synth). */
+ * along their largest axis). An airborne survey crosses a wall in rows a
+ * metre apart; a single wall row and the other face's row nearest the
+ * crease lie on a plane that is no surface of the scene, and the line
+ * where it meets the other face runs through that row, which is as
+ * likely to lie a spacing from the crease as on it (such labels were
+ * right 41 % of the time on synth). Gentle faces are sampled from above
+ * in rows a spacing apart, and there a row near the crease does belong
+ * to it: a ridge seen within a small cap has one row of each roof plane
+ * beyond the one along its line. */
 static int own_planes(const double *q, int m, const signed char *side, const face f[2],
                       double tol, double spacing)
 {
     double width2 = WPD_CREASE_ROW_WIDTH * spacing * WPD_CREASE_ROW_WIDTH * spacing;
     for (int s = 0; s < 2; s++) {
+        if (fabs(f[s].n[2]) >= WPD_CREASE_STEEP_COS)
+            continue;
         moments mo = {0, {0, 0, 0}, {0, 0, 0, 0, 0, 0}};
         for (int i = 0; i < m; i++)
-            if (side[i] == s && plane_dist(&f[!s], q + 3 * i) > tol)
+            if (side[i] == s && plane_dist(&f[!s], q + 3 * i) > WPD_CREASE_OWN_TOL * tol)
                 add_point(&mo, q + 3 * i);
         if (mo.n < WPD_CREASE_MIN_OWN)
             return 0;
@@ -183,7 +190,7 @@ static int own_planes(const double *q, int m, const signed char *side, const fac
         wpd_sym3_eigen(a, ev, ax);
         int off = 0;
         for (int i = 0; i < m && !off; i++) {
-            if (side[i] != s || plane_dist(&f[!s], q + 3 * i) <= tol)
+            if (side[i] != s || plane_dist(&f[!s], q + 3 * i) <= WPD_CREASE_OWN_TOL * tol)
                 continue;
             double d[3] = {q[3 * i] - c[0], q[3 * i + 1] - c[1], q[3 * i + 2] - c[2]};
             double t = dot(d, ax[2]);
