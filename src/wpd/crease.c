@@ -256,6 +256,25 @@ static double line_dist(const double p[3], const double dir[3], const double at[
     return r2 > 0 ? sqrt(r2) : 0;
 }
 
+/* The spacing that sets the band: the point's, or where a face is steep
+ * the smaller of it and the denser face's. A wall is sampled more sparsely
+ * than the roof or ground it meets, so the nearest neighbours of a point
+ * on the crease reach into the wall's gaps and overstate the spacing of
+ * the surface the band is measured on (labels a spacing from the crease
+ * came from that); each face of the ball around a point on the crease is
+ * about a half disc of the ball's radius (its farthest point), so the
+ * denser face's count gives its spacing. */
+static double band_spacing(const double *q, int m, const face f[2], double spacing)
+{
+    if (fabs(f[0].n[2]) >= WPD_CREASE_STEEP_COS && fabs(f[1].n[2]) >= WPD_CREASE_STEEP_COS)
+        return spacing;
+    double r2 = 0;
+    for (int i = 0; i < m; i++)
+        r2 = fmax(r2, dot(q + 3 * i, q + 3 * i));
+    int most = f[0].count > f[1].count ? f[0].count : f[1].count;
+    return fmin(spacing, sqrt(M_PI * r2 / 2 / most));
+}
+
 wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], double spacing)
 {
     if (m > MAX_POINTS)
@@ -294,5 +313,6 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
     double dir[3], at[3], origin[3] = {0, 0, 0};
     if (meet(f, origin, dir, at) || !folded(q, m, side, f, dir, at, tol))
         return WPD_CREASE_CROSSING;
-    return line_dist(origin, dir, at) <= 0.5 * spacing ? WPD_CREASE_ON : WPD_CREASE_NEAR;
+    return line_dist(origin, dir, at) <= 0.5 * band_spacing(q, m, f, spacing) ? WPD_CREASE_ON
+                                                                                : WPD_CREASE_NEAR;
 }
