@@ -168,8 +168,8 @@ static int planar(const double *pts, int m, const signed char *side, const face 
  * crease lie on a plane that is no surface of the scene, and the line
  * where it meets the other face runs through that row, which is as
  * likely to lie a spacing from the crease as on it (such labels were
- * right 41 % of the time on synth). Gentle faces are sampled from above
- * in rows a spacing apart, and there a row near the crease does belong
+ * right about 40 % of the time on synth). Gentle faces are sampled from
+ * above in rows a spacing apart, and there a row near the crease does belong
  * to it: a ridge seen within a small cap has one row of each roof plane
  * beyond the one along its line. */
 static int own_planes(const double *q, int m, const signed char *side, const face f[2],
