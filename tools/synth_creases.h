@@ -20,12 +20,12 @@
  * whether or not the scanner sees both sides: in the default survey the
  * walls facing north and south are parallel to every pulse (the mirror
  * sweeps across track only) and get no points, so their creases show in
- * the cloud as the border of a roof or of the ground beside the building. Vegetation and noise are never on a
- * crease; the terrain alone has none (its slopes change by a few percent).
- * The kind of the nearest crease within the band is kept (enum
- * synth_crease), so that a measurement can tell the creases whose two
- * faces carry points (ridges) from the others. Implemented by
- * synth_creases.c.
+ * the cloud as the border of a roof or of the ground beside the building.
+ * Vegetation and noise are never on a crease; the terrain alone has none
+ * (its slopes change by a few percent). The kind of the nearest crease
+ * within the band is kept (enum synth_crease), so that a measurement can
+ * tell the creases whose two faces carry points (ridges) from the others.
+ * Implemented by synth_creases.c.
  */
 #ifndef WPD_SYNTH_CREASES_H
 #define WPD_SYNTH_CREASES_H

@@ -35,8 +35,9 @@ typedef struct flight {
 } flight;
 
 /* Plans strips and scan pattern for scene sc (set up by synth_scene_init)
- * and `points` points; oblique: the oblique survey (synth_flight.c). Returns 0, or -1 when out of memory; call
- * synth_flight_free in either case. */
+ * and `points` points; oblique: the oblique survey (synth_flight.c).
+ * Returns 0, or -1 when out of memory; call synth_flight_free in either
+ * case. */
 int synth_flight_plan(flight *f, const scene *sc, uint64_t points, int oblique);
 
 /* Frees the tables of f and clears it. */

@@ -129,7 +129,8 @@ static int fly_line(scan *s, int strip, int source, int line, double flown, doub
 /* Flies one strip; `source` is its point source id. */
 static int fly_strip(scan *s, int strip, int source, wpd_error *err)
 {
-    synth_tracer_orient(&s->tr, strip_transposed(s->fl, strip), s->fl->per_direction < s->fl->strips);
+    const flight *f = s->fl;
+    synth_tracer_orient(&s->tr, strip_transposed(f, strip), f->per_direction < f->strips);
     double L = s->sc->side;
     uint64_t h = feature_hash(s->sc->seed, 5, source, 0, 0);
     double wobble_phase = hash_unit(h, 0), wobble_length = 500 + 400 * hash_unit(h, 1);

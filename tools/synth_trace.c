@@ -242,7 +242,7 @@ static int trace_echoes(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS])
     scene_xy(tr, ray_x(r, solid.z + CROWN_PROBE), r->y, &px, &py);
     const tree *t = NULL;
     if (!inside_lot(&tr->lots[0], px, py, TREE_MAX_REACH - KERB_OFFSET))
-        t = synth_tree_at(sc, px, py, &tr->blocks[2], tr->trees);
+        t = synth_tree_at(sc, px, py, &tr->blocks[3], tr->trees);
     double top, bottom;
     if (t && crown_chord(tr, t, r, &top, &bottom) && top > solid.z + 0.5)
         return crown_echoes(g, r, &solid, top, bottom, out);

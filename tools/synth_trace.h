@@ -26,7 +26,7 @@ typedef struct echo { double x, z; int material; double shade; int crease; } ech
  * own, so they do not evict each other) and the last ground height. */
 typedef struct tracer {
     const scene *sc;
-    block_info blocks[4];        /* ground lot, roof-level lot, tree lookups, lots between */
+    block_info blocks[4];        /* ground lot, roof-level lot, lots between, trees */
     building lots[3];            /* lot under the ground hit, lot at roof level, between */
     tree trees[3];               /* two kerb directions, park */
     double ground_guess;         /* ground height of the previous pulse */

@@ -25,7 +25,8 @@
  * The point is on the crease when it is within half the spacing of that
  * line: the band of the ground truth of `wpd synth --edge-truth`, half the
  * point spacing. Where a face is steep the spacing is at most that of the
- * denser face (a wall's sparse rows inflate the nearest neighbours'). A neighbourhood that is one plane (surface variation below
+ * denser face (a wall's sparse rows inflate the nearest neighbours'). A
+ * neighbourhood that is one plane (surface variation below
  * WPD_CREASE_MIN_VARIATION) is no crease, whatever its border: a crease one
  * of whose faces carries no points cannot be located from the points. One
  * whose surface variation exceeds WPD_CREASE_MAX_VARIATION is a volume (a
