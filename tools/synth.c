@@ -50,6 +50,13 @@
  *    output stops at the N-th point, mid-pulse if so. Should the planned
  *    flight end short (only possible for tiny N), the strips are flown again
  *    with new source ids.
+ *  - The oblique survey (--oblique; synth_flight.c): the same scene flown
+ *    at the same height in strips north/south and then east/west (the
+ *    tracer swaps x and y for the latter), a sweep of -65..+65 deg, strips
+ *    a quarter swath apart whose tracks reach a quarter swath beyond the
+ *    scene: every wall faces strips that see it at a steep angle. A steep
+ *    ray may pass over a lot between the ground and roof levels: the
+ *    tracer looks for buildings every 10 m of its run.
  *  - gps_time (adjusted standard GPS time) increases pulse by pulse; the
  *    returns of one pulse share it. Intensity and colour depend on the
  *    surface, the scan angle and the return number, with noise.
@@ -92,7 +99,7 @@ int wpd_synth_generate(const wpd_synth_options *options, wpd_synth_summary *summ
     scene sc;
     synth_scene_init(&sc, opt.seed, opt.points);
     flight fl;
-    if (synth_flight_plan(&fl, &sc, opt.points)) {
+    if (synth_flight_plan(&fl, &sc, opt.points, opt.oblique)) {
         synth_flight_free(&fl);
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", opt.output);
     }

@@ -3,12 +3,13 @@
  *
  * The scene (terrain, streets, buildings with walls and flat or gabled
  * roofs, street and park trees with multiple returns, a little noise) is
- * scanned by a simulated aircraft flying parallel strips with side overlap;
- * see the comment block at the top of synth.c. The points are generated and
+ * scanned by a simulated aircraft flying parallel strips with side overlap
+ * (or, with `oblique`, cross strips with a wide sweep); see the comment
+ * block at the top of synth.c. The points are generated and
  * written in batches, never held, so N may be anything from 1 to billions;
  * the scene grows with N so that the density stays at about 12 points/m2.
  *
- * The output is a function of (points, seed) only: the same options give the
+ * The output is a function of (points, seed, oblique, edge_truth) only: the same options give the
  * same bytes, whatever the machine load, time or thread count. Splitting into
  * tiles only routes the same points to different files, in the same order.
  *
@@ -24,7 +25,8 @@
  *    double gps_time, uchar red green blue; two "wpd synth" comments.
  *  - With edge_truth (`--edge-truth`), one more field, edge_truth: not 0
  *    for a point within half the point spacing (the survey's pulse spacing,
- *    0.35 to 0.38 m) of a building crease of 30 degrees or more, the kind
+ *    0.35 to 0.38 m; with --oblique that of all its strips together,
+ *    0.32 m) of a building crease of 30 degrees or more, the kind
  *    of the nearest one: 1 roof
  *    ridge, 2 wall top (eaves, gable tops, flat roof edges), 3 wall
  *    corner, 4 wall foot (synth_creases.h); 0 elsewhere, and always on
@@ -38,7 +40,8 @@
  *    7 noise; return_number 1..number_of_returns (<= 5); point_source_id the
  *    flight strip (1, 2, ...); gps_time non-decreasing in file order; colour
  *    8-bit in PLY, 16-bit (8-bit * 257) in LAS. LAS only: scan_angle_rank
- *    -22..22, scan_direction_flag, edge_of_flight_line; user_data 0.
+ *    -22..22 (-65..65 with --oblique), scan_direction_flag,
+ *    edge_of_flight_line; user_data 0.
  */
 #ifndef WPD_SYNTH_H
 #define WPD_SYNTH_H
@@ -63,6 +66,8 @@ typedef struct wpd_synth_options {
     int ply_ascii;        /* PLY only: ascii instead of binary little-endian */
     int overwrite;        /* replace existing output files (else refuse) */
     int edge_truth;       /* 1: add the field edge_truth (synth_creases.h) */
+    int oblique;          /* 1: the oblique survey (cross strips, +-65 degrees;
+                             synth_flight.c) instead of the default one */
     const char *output;   /* output path; tile paths are derived from it */
 } wpd_synth_options;
 
@@ -99,7 +104,8 @@ int wpd_synth_run(const wpd_synth_options *opt, wpd_error *err);
 int wpd_synth_tile_path(const char *output, int t, char *buf, size_t len);
 
 /* The `wpd synth` subcommand; argv[0] is "synth".
- *   wpd synth -n N -o OUT [--seed S] [--tiles K] [--ascii] [--force] [--help]
+ *   wpd synth -n N -o OUT [--seed S] [--tiles K] [--edge-truth] [--oblique]
+ *             [--ascii] [--force] [--help]
  * N accepts the suffixes k, M, G (10^3, 10^6, 10^9). The format comes from
  * OUT's extension (.las or .ply). On success prints one line on stdout (count,
  * files, bounds) and returns 0; on error prints one line

@@ -16,8 +16,8 @@
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: wpd synth -n N -o OUT [--seed S] [--tiles K] [--edge-truth] [--ascii]\n"
-            "                 [--force]\n"
+            "usage: wpd synth -n N -o OUT [--seed S] [--tiles K] [--edge-truth] [--oblique]\n"
+            "                 [--ascii] [--force]\n"
             "\n"
             "Writes a synthetic city-like airborne LiDAR scan of exactly N points\n"
             "(terrain, streets, buildings with walls and roofs, trees with multiple\n"
@@ -36,6 +36,10 @@ static void usage(FILE *f)
             "               or more, the kind of the nearest: 1 ridge, 2 wall top\n"
             "               (eaves), 3 wall corner, 4 wall foot; 0 elsewhere (LAS: an\n"
             "               extra byte with its Extra Bytes VLR; PLY: uchar)\n"
+            "  --oblique    the oblique survey: strips north/south and east/west, a\n"
+            "               +-65 degree sweep, so walls facing any way carry points\n"
+            "               (the same scene; the point spacing of --edge-truth is then\n"
+            "               that of all strips together, about 0.32 m)\n"
             "  --ascii      ascii PLY\n"
             "  --force      overwrite existing output files\n"
             "  --help       this text\n"
@@ -142,6 +146,8 @@ static int parse_args(int argc, char **argv, wpd_synth_options *opt)
             opt->overwrite = 1;
         } else if (!strcmp(a, "--edge-truth")) {
             opt->edge_truth = 1;
+        } else if (!strcmp(a, "--oblique")) {
+            opt->oblique = 1;
         } else if ((name = valued_option(a))) {
             if (!(v = option_value(argc, argv, &i, name)))
                 return cli_fail(WPD_E_USAGE, "option %s needs a value (see 'wpd synth --help')",

@@ -14,16 +14,18 @@
  * pulse spacing, the distance between neighbouring pulses on the ground
  * along and across track in one strip (flight.line_spacing, 0.35 to 0.38
  * m; the 12 points/m2 of the scene count the strips' overlaps and the
- * multiple returns of the trees too). The creases are the scene's geometry, whether or
- * not the scanner sees both sides: the walls facing north and south are
- * parallel to every pulse (the mirror sweeps across track only) and get no
- * points, so their creases show in the cloud as the border of a roof or
- * of the ground beside the building. Vegetation and noise are never on a
- * crease; the terrain alone has none (its slopes change by a few percent).
- * The kind of the nearest crease within the band is kept (enum
- * synth_crease), so that a measurement can tell the creases whose two
- * faces carry points (ridges) from the others. Implemented by
- * synth_creases.c.
+ * multiple returns of the trees too); for the oblique survey, whose
+ * strips all overlap, the spacing of the pulses of all strips together
+ * (flight.point_spacing, 0.32 m). The creases are the scene's geometry,
+ * whether or not the scanner sees both sides: in the default survey the
+ * walls facing north and south are parallel to every pulse (the mirror
+ * sweeps across track only) and get no points, so their creases show in
+ * the cloud as the border of a roof or of the ground beside the building.
+ * Vegetation and noise are never on a crease; the terrain alone has none
+ * (its slopes change by a few percent). The kind of the nearest crease
+ * within the band is kept (enum synth_crease), so that a measurement can
+ * tell the creases whose two faces carry points (ridges) from the others.
+ * Implemented by synth_creases.c.
  */
 #ifndef WPD_SYNTH_CREASES_H
 #define WPD_SYNTH_CREASES_H

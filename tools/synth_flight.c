@@ -10,6 +10,7 @@
 #include <string.h>
 
 #define SCAN_HALF_ANGLE (22.0 * 3.14159265358979323846 / 180.0)
+#define OBLIQUE_HALF_ANGLE (65.0 * 3.14159265358979323846 / 180.0)
 #define SWATH_MIN 60.0          /* small scenes are low (UAV-like) surveys */
 #define SWATH_MAX 500.0
 #define SIDE_OVERLAP 0.30
@@ -25,8 +26,20 @@ void synth_flight_free(flight *f)
 
 /* Strip geometry: swath, spacing and count from the scene's side (at
  * least MIN_STRIPS, centred on the scene), the flying height from the
- * swath and the scan angle. */
-static void plan_strips(flight *f, const scene *sc)
+ * swath and the scan angle.
+ *
+ * The oblique survey flies at the same height (so over the same scene:
+ * the buildings' height limit depends on it) with a sweep of +-65
+ * degrees, the field of view of a UAV or helicopter scanner, in strips a
+ * quarter of the swath apart in both directions, north/south and
+ * east/west, whose tracks extend a quarter swath beyond the scene on
+ * either side: every point is seen from about four strips of each
+ * direction, and every wall, whichever way it faces, from strips on its
+ * side at angles of up to 65 degrees (a wall takes tan(angle) times the
+ * ground's pulses per square metre of one strip, so steep angles are what
+ * samples it). Walls near the scene's border are seen from strips
+ * outside it, as surveys plan their lines. */
+static void plan_strips(flight *f, const scene *sc, int oblique)
 {
     double L = sc->side;
     f->swath = clampd(L / (1 + (MIN_STRIPS - 1) * (1 - SIDE_OVERLAP)), SWATH_MIN, SWATH_MAX);
@@ -37,6 +50,17 @@ static void plan_strips(flight *f, const scene *sc)
     f->first_centre = L / 2 - (f->strips - 1) * f->spacing / 2;
     f->height = f->swath / 2 / tan(SCAN_HALF_ANGLE);
     f->altitude = terrain(sc, L / 2, L / 2) + f->height;
+    f->half_angle = SCAN_HALF_ANGLE;
+    f->per_direction = f->strips;
+    if (oblique) {
+        double reach = f->height * tan(OBLIQUE_HALF_ANGLE);
+        f->half_angle = OBLIQUE_HALF_ANGLE;
+        f->swath = 2 * reach;
+        f->spacing = reach / 2;
+        f->per_direction = (int)ceil((L + reach) / f->spacing - 1e-9) + 1;
+        f->strips = 2 * f->per_direction;
+        f->first_centre = L / 2 - (f->per_direction - 1) * f->spacing / 2;
+    }
 }
 
 /* Pulse spacing that gives `points` points over the scene area the strips
@@ -53,15 +77,21 @@ static void plan_pulses(flight *f, double L, uint64_t points)
     int m = (int)(f->swath / step + 0.5);
     f->pulses_per_line = m < 2 ? 2 : m > 1000000 ? 1000000 : m;
     f->line_spacing = step;
+    /* One strip's spacing where strips barely overlap (the default survey);
+     * the oblique survey's strips all overlap: the spacing of their pulses
+     * together. */
+    f->point_spacing = f->per_direction < f->strips ? 1 / sqrt(pulses_per_m2 * covered / (L * L))
+                                                   : step;
     f->line_period = step / clampd(GROUND_SPEED * f->swath / SWATH_MAX, MIN_GROUND_SPEED, GROUND_SPEED);
 }
 
-/* The mirror's sweep: equal angular steps over -22 .. +22 degrees. */
+/* The mirror's sweep: equal angular steps over -22 .. +22 degrees (the
+ * oblique survey: -65 .. +65). */
 static void plan_sweep(flight *f)
 {
     const int m = f->pulses_per_line;
     for (int j = 0; j < m; j++) {
-        double a = SCAN_HALF_ANGLE * (2 * (j + 0.5) / m - 1);
+        double a = f->half_angle * (2 * (j + 0.5) / m - 1);
         f->tan_of[j] = tan(a);
         f->rank_of[j] = (int8_t)lround(a * 180 / 3.14159265358979323846);
         f->gain_of[j] = 0.6 + 0.4 * cos(a);
@@ -88,10 +118,10 @@ static void plan_strip_steps(flight *f, double L)
     }
 }
 
-int synth_flight_plan(flight *f, const scene *sc, uint64_t points)
+int synth_flight_plan(flight *f, const scene *sc, uint64_t points, int oblique)
 {
     memset(f, 0, sizeof *f);
-    plan_strips(f, sc);
+    plan_strips(f, sc, oblique);
     plan_pulses(f, sc->side, points);
     size_t m = (size_t)f->pulses_per_line, strips = (size_t)f->strips;
     f->tan_of = malloc(m * sizeof *f->tan_of);

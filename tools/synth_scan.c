@@ -24,8 +24,8 @@ void synth_scan_init(scan *s, const scene *sc, const flight *fl, emitter *em, ui
 {
     memset(s, 0, sizeof *s);
     s->sc = sc, s->fl = fl, s->em = em, s->time = GPS_START;
-    /* Half the pulse spacing: the band of the ground truth (synth_creases.h). */
-    synth_tracer_init(&s->tr, sc, creases ? 0.5 * fl->line_spacing : 0);
+    /* Half the point spacing: the band of the ground truth (synth_creases.h). */
+    synth_tracer_init(&s->tr, sc, creases ? 0.5 * fl->point_spacing : 0);
     rng_seed(&s->g, seed);
 }
 
@@ -68,14 +68,18 @@ static void shade_point(rng *g, point *p, const echo *e, double gain, double noi
 }
 
 /* Emits the echoes of one pulse (stopping at the target count). */
-static int emit_pulse(scan *s, point *p, const echo *ech, int n, double gain, wpd_error *err)
+static int emit_pulse(scan *s, point *p, const echo *ech, int n, double gain, double along,
+                      wpd_error *err)
 {
     emitter *em = s->em;
     p->nret = n;
     for (int i = 0; i < n && em->written < em->target; i++) {
         uint64_t bits = rng_next(&s->g);
         p->ret = i + 1;
-        p->x = ech[i].x;
+        if (s->tr.transposed)    /* the echo's x is the scene's y */
+            p->x = along, p->y = ech[i].x;
+        else
+            p->x = ech[i].x;
         p->crease = ech[i].crease;
         p->z = ech[i].z + 0.05 * tri_noise((uint32_t)bits);   /* ranging noise, sd 2 cm */
         shade_point(&s->g, p, &ech[i], gain, tri_noise((uint32_t)(bits >> 32)));
@@ -116,7 +120,7 @@ static int fly_line(scan *s, int strip, int source, int line, double flown, doub
         p.gps_time = s->time + j * dt;
         p.edge = j == m - 1;
         p.angle = north ? f->rank_of[step] : -f->rank_of[step];
-        if (emit_pulse(s, &p, ech, n, f->gain_of[step], err))
+        if (emit_pulse(s, &p, ech, n, f->gain_of[step], r.y, err))
             return -1;
     }
     return 0;
@@ -125,6 +129,8 @@ static int fly_line(scan *s, int strip, int source, int line, double flown, doub
 /* Flies one strip; `source` is its point source id. */
 static int fly_strip(scan *s, int strip, int source, wpd_error *err)
 {
+    const flight *f = s->fl;
+    synth_tracer_orient(&s->tr, strip_transposed(f, strip), f->per_direction < f->strips);
     double L = s->sc->side;
     uint64_t h = feature_hash(s->sc->seed, 5, source, 0, 0);
     double wobble_phase = hash_unit(h, 0), wobble_length = 500 + 400 * hash_unit(h, 1);

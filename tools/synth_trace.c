@@ -82,11 +82,23 @@ static int building_hit(const building *b, const ray *r, hit *h)
     return 1;
 }
 
+/* The scene's (x, y) of the point (u, v) of the ray's frame. */
+static inline void scene_xy(const tracer *tr, double u, double v, double *x, double *y)
+{
+    if (tr->transposed)
+        *x = v, *y = u;
+    else
+        *x = u, *y = v;
+}
+
 /* Vertical extent of the crown along the ray (treated as vertical inside
  * the crown); 0 if the ray misses it. */
-static int crown_chord(const tree *t, const ray *r, double *top, double *bottom)
+static int crown_chord(const tracer *tr, const tree *t, const ray *r, double *top,
+                       double *bottom)
 {
-    double x = ray_x(r, t->zc), dx = x - t->cx, dy = r->y - t->cy;
+    double x, y;
+    scene_xy(tr, ray_x(r, t->zc), r->y, &x, &y);
+    double dx = x - t->cx, dy = y - t->cy;
     double d2 = dx * dx + dy * dy, reach = t->rh * (1 + t->lobe);
     if (d2 >= reach * reach)
         return 0;
@@ -110,6 +122,34 @@ static inline int inside_lot(const building *b, double x, double y, double margi
            y < b->ly1 - margin;
 }
 
+/* Building b in the ray's frame: b itself, or in a transposed tracer a
+ * copy with x and y swapped. */
+static const building *in_frame(const tracer *tr, const building *b, building *copy)
+{
+    if (!tr->transposed)
+        return b;
+    *copy = *b;
+    copy->x0 = b->y0, copy->x1 = b->y1, copy->y0 = b->x0, copy->y1 = b->x1;
+    copy->lx0 = b->ly0, copy->lx1 = b->ly1, copy->ly0 = b->lx0, copy->ly1 = b->lx1;
+    copy->roof = b->roof == ROOF_RIDGE_X ? ROOF_RIDGE_Y
+                 : b->roof == ROOF_RIDGE_Y ? ROOF_RIDGE_X
+                                           : b->roof;
+    return copy;
+}
+
+/* The building on the lot at (u, v) of the ray's frame, through lookup
+ * cache k; NULL on a street or in a park. */
+static const building *building_under(tracer *tr, double u, double v, int k, int *street)
+{
+    double x, y;
+    scene_xy(tr, u, v, &x, &y);
+    return synth_building_at(tr->sc, x, y, &tr->blocks[k], &tr->lots[k], street);
+}
+
+/* Horizontal run of a steep ray between the looks for buildings it may
+ * pass over (lots and streets are wider). */
+#define PROBE_RUN 10.0
+
 /* The first surface the ray meets below the tree tops: ground or building. */
 static hit trace_solid(tracer *tr, const ray *r)
 {
@@ -117,27 +157,41 @@ static hit trace_solid(tracer *tr, const ray *r)
     /* Where the ray meets the terrain: one step from the previous pulse's
      * height (neighbouring pulses differ by centimetres); the point is on
      * the terrain, off the ray by far less than the ranging noise. */
-    double x = ray_x(r, tr->ground_guess);
-    double z = terrain(sc, x, r->y);
+    double x = ray_x(r, tr->ground_guess), gx, gy;
+    scene_xy(tr, x, r->y, &gx, &gy);
+    double z = terrain(sc, gx, gy);
     tr->ground_guess = z;
     int street, street_top;
     hit best = {x, z, MAT_GROUND, 1.0, 0}, h;
-    const building *b = synth_building_at(sc, x, r->y, &tr->blocks[0], &tr->lots[0], &street);
+    building view, between;
+    const building *b = building_under(tr, x, r->y, 0, &street);
     const building *on = b;      /* the ground of b's lot, or the building hit */
     if (street)
         best.material = MAT_STREET;
-    if (b && building_hit(b, r, &h) && h.z > best.z)
+    if (b && building_hit(in_frame(tr, b, &view), r, &h) && h.z > best.z)
         best = h;
-    const building *b2 = synth_building_at(sc, ray_x(r, z + sc->tallest), r->y, &tr->blocks[1],
-                                           &tr->lots[1], &street_top);
+    const building *b2 = building_under(tr, ray_x(r, z + sc->tallest), r->y, 1, &street_top);
     if (b2 && !(b && b2->bi == b->bi && b2->bj == b->bj && b2->li == b->li && b2->lj == b->lj) &&
-        building_hit(b2, r, &h) && h.z > best.z)
+        building_hit(in_frame(tr, b2, &view), r, &h) && h.z > best.z)
         best = h, on = b2;
+    /* A steep ray may pass over a lot between the two: look every
+     * PROBE_RUN metres of its run. */
+    int looks = tr->steep ? (int)ceil(sc->tallest * fabs(r->s) / PROBE_RUN) : 1;
+    for (int k = 1; k < looks; k++) {
+        int st;
+        const building *bk =
+            building_under(tr, ray_x(r, z + sc->tallest * k / looks), r->y, 2, &st);
+        if (bk && building_hit(in_frame(tr, bk, &view), r, &h) && h.z > best.z)
+            best = h, between = *bk, on = &between;
+    }
     /* The ground near a foot lies on the lot of its building (lots keep
      * 3 m around a building), so b is the one building it can be near. */
-    best.crease = tr->crease_band > 0 && on
-                      ? synth_on_crease(sc, on, best.x, r->y, best.z, tr->crease_band)
-                      : 0;
+    best.crease = 0;
+    if (tr->crease_band > 0 && on) {
+        double cx, cy;
+        scene_xy(tr, best.x, r->y, &cx, &cy);
+        best.crease = synth_on_crease(sc, on, cx, cy, best.z, tr->crease_band);
+    }
     return best;
 }
 
@@ -184,15 +238,22 @@ static int trace_echoes(tracer *tr, rng *g, const ray *r, echo out[MAX_RETURNS])
         return 1;
     }
     /* Built lots hold no trees: only street crowns reach a little way in. */
-    double probe = ray_x(r, solid.z + CROWN_PROBE);
+    double px, py;
+    scene_xy(tr, ray_x(r, solid.z + CROWN_PROBE), r->y, &px, &py);
     const tree *t = NULL;
-    if (!inside_lot(&tr->lots[0], probe, r->y, TREE_MAX_REACH - KERB_OFFSET))
-        t = synth_tree_at(sc, probe, r->y, &tr->blocks[2], tr->trees);
+    if (!inside_lot(&tr->lots[0], px, py, TREE_MAX_REACH - KERB_OFFSET))
+        t = synth_tree_at(sc, px, py, &tr->blocks[3], tr->trees);
     double top, bottom;
-    if (t && crown_chord(t, r, &top, &bottom) && top > solid.z + 0.5)
+    if (t && crown_chord(tr, t, r, &top, &bottom) && top > solid.z + 0.5)
         return crown_echoes(g, r, &solid, top, bottom, out);
     out[0] = solid;
     return 1;
+}
+
+void synth_tracer_orient(tracer *tr, int transposed, int steep)
+{
+    tr->transposed = transposed;
+    tr->steep = steep;
 }
 
 void synth_tracer_init(tracer *tr, const scene *sc, double crease_band)

@@ -12,7 +12,9 @@
 #define MAX_RETURNS 5
 
 /* A pulse: a straight ray from the aircraft at (xa, y, za) leaning across
- * track; descending by 1 m moves it s metres in x. */
+ * track; descending by 1 m moves it s metres in x. In a transposed tracer
+ * (east/west strips) x and y are the scene's y and x, and so are an
+ * echo's x and the ray's y. */
 typedef struct ray { double xa, y, za, s; } ray;
 
 /* One return, in local coordinates, before the acquisition attributes;
@@ -24,17 +26,25 @@ typedef struct echo { double x, z; int material; double shade; int crease; } ech
  * own, so they do not evict each other) and the last ground height. */
 typedef struct tracer {
     const scene *sc;
-    block_info blocks[3];        /* ground lot, roof-level lot, tree lookups */
-    building lots[2];            /* lot under the ground hit, lot at roof level */
+    block_info blocks[4];        /* ground lot, roof-level lot, lots between, trees */
+    building lots[3];            /* lot under the ground hit, lot at roof level, between */
     tree trees[3];               /* two kerb directions, park */
     double ground_guess;         /* ground height of the previous pulse */
     double crease_band;          /* > 0: mark the echoes within it of a crease */
+    int steep;                   /* 1: rays may lean so far (the oblique survey) that they
+                                    pass over lots between those two: look there too */
+    int transposed;              /* 1: rays lean along y (east/west strips): the ray's
+                                    x is the scene's y and its y the scene's x */
 } tracer;
 
 /* A tracer for scene sc (which must outlive it), with empty caches;
  * crease_band > 0: set each echo's crease kind for that band (half the
  * point spacing; synth_creases.h), else it stays 0. */
 void synth_tracer_init(tracer *tr, const scene *sc, double crease_band);
+
+/* Sets the direction of the rays that follow: transposed 1 for east/west
+ * strips (see ray), 0 for north/south ones; steep 1 for the oblique survey. */
+void synth_tracer_orient(tracer *tr, int transposed, int steep);
 
 /* Traces ray r, drawing from g; returns the number of echoes (1 ..
  * MAX_RETURNS, written to out in return order), or 0 when one of them

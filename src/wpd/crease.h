@@ -12,13 +12,21 @@
  *     times that (vegetation, multiple returns and noise fail here: their
  *     neighbourhoods are not two planes);
  *   - the normals are WPD_CREASE_MIN_DEGREES or more apart;
+ *   - each steep face (normal more than 45 degrees from z) is a plane its
+ *     own points determine: WPD_CREASE_MIN_OWN or more of them lie off
+ *     the other face's plane (beyond twice the flatness tolerance), not
+ *     all on one line (a single row of wall points and the other face's
+ *     row nearest the crease make a plane that is no surface: its line
+ *     with the other face runs through that row);
  *   - the faces lie on either side of the line where their planes meet
  *     (a fold, not two planes crossing), each within its plane: at most a
  *     tenth of a face's points lie beyond the line by more than three
  *     times the flatness.
  * The point is on the crease when it is within half the spacing of that
  * line: the band of the ground truth of `wpd synth --edge-truth`, half the
- * point spacing. A neighbourhood that is one plane (surface variation below
+ * point spacing. Where a face is steep the spacing is at most that of the
+ * denser face (a wall's sparse rows inflate the nearest neighbours'). A
+ * neighbourhood that is one plane (surface variation below
  * WPD_CREASE_MIN_VARIATION) is no crease, whatever its border: a crease one
  * of whose faces carries no points cannot be located from the points. One
  * whose surface variation exceeds WPD_CREASE_MAX_VARIATION is a volume (a
@@ -37,6 +45,14 @@
 #define WPD_CREASE_FLATNESS 0.15
 #define WPD_CREASE_MIN_VARIATION 0.004
 #define WPD_CREASE_MAX_VARIATION 0.15
+/* A steep face (|normal z| below WPD_CREASE_STEEP_COS, cos 45 degrees)
+ * needs WPD_CREASE_MIN_OWN own points (farther than WPD_CREASE_OWN_TOL
+ * flatness tolerances from the other face's plane), one of them
+ * WPD_CREASE_ROW_WIDTH spacings off the line through them: crease.c. */
+#define WPD_CREASE_STEEP_COS 0.70710678118654752
+#define WPD_CREASE_MIN_OWN 3
+#define WPD_CREASE_OWN_TOL 2.0
+#define WPD_CREASE_ROW_WIDTH 0.5
 
 /* Why a neighbourhood is or is not a crease (for measurements). */
 typedef enum wpd_crease_verdict {
@@ -47,6 +63,8 @@ typedef enum wpd_crease_verdict {
     WPD_CREASE_ROUGH,      /* a face not planar: not two planes */
     WPD_CREASE_SHALLOW,    /* faces less than the minimum angle apart */
     WPD_CREASE_CROSSING,   /* faces not on either side of their line */
+    WPD_CREASE_ROW,        /* a steep face whose own points are one row: its
+                              plane is not determined */
     WPD_CREASE_VERDICTS
 } wpd_crease_verdict;
 
