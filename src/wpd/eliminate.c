@@ -235,18 +235,26 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* The order of deletion: the squared cost, relative to the sample's own
- * radius (a sample of radius r/2 costs 4 times its squared hole). */
-static double rank_of(const wpd_eliminate *e, uint32_t s)
+/* The squared cost, relative to the sample's own radius (a sample of
+ * radius r/2 costs 4 times its squared hole): which samples a sweep may
+ * take (the candidates below). */
+static double cost_of(const wpd_eliminate *e, uint32_t s)
 {
     double c = double_of(e->cost[s]);
     return e->half && e->half[s] ? 4 * c : c;
 }
 
-/* (rank, index) order. */
-static int before(const wpd_eliminate *e, uint32_t a, uint32_t b)
+/* The order of deletion among the candidates: cost_of times the sample's
+ * crowding factor of the sweep (crowding()). */
+static double rank_of(const wpd_eliminate *e, const double *crowd, uint32_t s)
 {
-    double ra = rank_of(e, a), rb = rank_of(e, b);
+    return cost_of(e, s) * crowd[s];
+}
+
+/* (rank, index) order. */
+static int before(const wpd_eliminate *e, const double *crowd, uint32_t a, uint32_t b)
+{
+    double ra = rank_of(e, crowd, a), rb = rank_of(e, crowd, b);
     return ra < rb || (ra == rb && a < b);
 }
 
@@ -281,7 +289,7 @@ static int clear_around(const wpd_eliminate *e, const uint8_t *taken, double tak
 
 /* Sorts idx[0..m-1] by (rank, index) (a bottom-up merge sort: qsort's
  * comparison could not reach the costs without global state). */
-static int sort_by_cost(const wpd_eliminate *e, uint32_t *idx, size_t m)
+static int sort_by_rank(const wpd_eliminate *e, const double *crowd, uint32_t *idx, size_t m)
 {
     uint32_t *tmp = malloc((m ? m : 1) * sizeof *tmp);
     if (!tmp)
@@ -291,7 +299,7 @@ static int sort_by_cost(const wpd_eliminate *e, uint32_t *idx, size_t m)
             size_t mid = lo + w < m ? lo + w : m, hi = lo + 2 * w < m ? lo + 2 * w : m;
             size_t i = lo, j = mid, k = lo;
             while (i < mid && j < hi)
-                tmp[k++] = before(e, idx[j], idx[i]) ? idx[j++] : idx[i++];
+                tmp[k++] = before(e, crowd, idx[j], idx[i]) ? idx[j++] : idx[i++];
             while (i < mid)
                 tmp[k++] = idx[i++];
             while (j < hi)
@@ -303,6 +311,41 @@ static int sort_by_cost(const wpd_eliminate *e, uint32_t *idx, size_t m)
     return 0;
 }
 
+/* Among candidates of similar cost, the crowded go first (as in Yuksel's
+ * weighted sample elimination): a sample whose nearest live sample lies
+ * closer than the median of that distance over the live samples, d < med,
+ * has its rank scaled by (d / med)^2; the others keep their cost as rank.
+ * Only the order among the candidates changes, not which samples are
+ * candidates (their cost bound, below), so no larger hole can open than
+ * before: on the 18 quality cases (docs/benchmarks.md) the Hausdorff
+ * distance grew by at most 0.8 %, d_min and the local CV of the samples
+ * improved slightly (NC Raleigh 10 K: local CV 0.0944 -> 0.0941 without
+ * smoothing, 0.0899 -> 0.0892 with it). Global over the live samples and
+ * by coordinates only: the same for any threads or tiles. tmp: room for
+ * e->live doubles. Returns 0, or -1 out of memory. */
+static int crowding(const wpd_eliminate *e, double *crowd, double *tmp)
+{
+    double r = e->spacing;
+#pragma omp parallel for num_threads(e->threads) schedule(dynamic, 1024)
+    for (size_t i = 0; i < e->live; i++) {
+        uint32_t s = e->live_idx[i], idx[1];
+        double d2[1];
+        int got = wpd_knn(&e->grid, e->xyz + 3 * (size_t)s, 1, s, INFINITY, 1.5 * r, idx, d2);
+        crowd[s] = got ? sqrt(d2[0]) : INFINITY;
+        tmp[i] = crowd[s];
+    }
+    if (e->live == 0)
+        return 0;
+    qsort(tmp, e->live, sizeof *tmp, cmp_double);
+    double med = tmp[e->live / 2];
+    for (size_t i = 0; i < e->live; i++) {
+        uint32_t s = e->live_idx[i];
+        double f = med > 0 && crowd[s] < med ? crowd[s] / med : 1;
+        crowd[s] = f * f;
+    }
+    return 0;
+}
+
 long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
 {
     if (e->live <= target)
@@ -311,10 +354,11 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
     double *sorted = malloc(m * sizeof *sorted);
     uint32_t *cand = malloc(m * sizeof *cand);
     uint8_t *taken = calloc(e->n, 1);
-    if (!sorted || !cand || !taken)
+    double *crowd = malloc((e->n ? e->n : 1) * sizeof *crowd);
+    if (!sorted || !cand || !taken || !crowd || crowding(e, crowd, sorted))
         goto oom;
     for (size_t i = 0; i < m; i++)
-        sorted[i] = rank_of(e, e->live_idx[i]);
+        sorted[i] = cost_of(e, e->live_idx[i]);
     qsort(sorted, m, sizeof *sorted, cmp_double);
     /* Candidates: the samples up to the cost of rank quota + min(quota,
      * m / 20). Up to rank quota alone, crowded neighbourhoods (whose
@@ -327,9 +371,9 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
     double tau = sorted[(rank < m ? rank : m) - 1];
     size_t nc = 0;
     for (size_t i = 0; i < m; i++)
-        if (rank_of(e, e->live_idx[i]) <= tau)
+        if (cost_of(e, e->live_idx[i]) <= tau)
             cand[nc++] = e->live_idx[i];
-    if (sort_by_cost(e, cand, nc))
+    if (sort_by_rank(e, crowd, cand, nc))
         goto oom;
     /* In (rank, index) order, each candidate clear of those taken before:
      * no two deletions of the sweep touch each other's regions. */
@@ -343,10 +387,10 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
             deleted++;
         }
     e->live -= deleted;
-    free(sorted), free(cand), free(taken);
+    free(sorted), free(cand), free(taken), free(crowd);
     return (long)deleted;
 oom:
-    free(sorted), free(cand), free(taken);
+    free(sorted), free(cand), free(taken), free(crowd);
     return wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
 }
 
