@@ -261,10 +261,10 @@ enum { VORONOI_NEIGHBOURS = 8 };
 /* Over-relaxed Lloyd: the planned move goes OVER_RELAX times the way to
  * the cell's centre (successive over-relaxation; 1 is plain Lloyd). The
  * guards cut whatever overshoots into a neighbour's spacing or uncovers an
- * input point. On the 18 quality cases (5 iterations) 1.5 lowered the
- * Voronoi CV in 14 and the local CV in 15 of them against 1.0 (geometric
- * mean of the Voronoi CV 0.7 % lower, at most 1.2 % higher in one case),
- * 1.3 less so (docs/algorithm.md, section 4). */
+ * input point. On the 18 quality cases (5 iterations), against 1.0: the
+ * Voronoi CV lower in 16 (by up to 2.2 %; at most 0.2 % higher in 2), the
+ * local CV lower in 15, equal in 2, 0.3 % higher on the terrain at 10 K;
+ * 1.3 gained about two thirds as much (docs/algorithm.md, section 4). */
 #define OVER_RELAX 1.5
 
 /* The move (3D, within the tangent plane) that takes sample o from its
@@ -366,48 +366,23 @@ static void round_to_output(const double res[3], const double p[3], double out[3
 
 /* A sample on no scanned surface at the sampling's scale - an isolated
  * return, a noise spike, a lone wire point - has input neighbours sparser
- * than the samples around its starting position: the mean distance to its
- * 6 nearest input points is above r and above the mean distance to its 6
- * nearest samples. Its tangent plane means nothing and its Voronoi cell is
- * as large as the gap around it: it keeps its starting position. (With r
- * alone, every sample of a cloud resampled to half its points was
- * "isolated" - the exact count deletes half of a pass that kept nearly
- * every input point, so the samples end about sqrt(2) r apart and the
- * input's 6-neighbour spacing lies between the two: the conference room at
- * 10 K of 20 K moved no sample (local CV 0.120, Voronoi CV 0.292); judged
- * against the samples' own spacing none is, 0.099 and 0.237. The bound was
- * half of r before the coverage guard kept such a sample from opening a
- * hole.) sample_spacing: the mean distance from the sample's start to its
- * 6 nearest samples. */
-static int off_surface(const wpd_grid *surface, const double start[3], double spacing,
-                       double sample_spacing)
+ * than the samples around its starting position (mean distance to the 6
+ * nearest input points above r). Its tangent plane means nothing and its
+ * Voronoi cell is as large as the gap around it: it keeps its starting
+ * position. (The bound was half of r before the coverage guard kept such
+ * a sample from opening a hole; at 10 % of the input the input spacing is
+ * about 0.45 r on an even surface, and half of r kept 27-40 % of the
+ * samples of lato270 and lone-star_tile1 still.) */
+static int off_surface(const wpd_grid *surface, const double start[3], double spacing)
 {
     /* A sample starts on an input point: its 7 nearest are that point and
      * the 6 that define the local spacing there. */
     uint32_t nb[SPACING_K + 1];
     double d2[SPACING_K + 1], local = 0;
     int got = wpd_knn_slots(surface, start, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
-    if (got <= 1)
-        return 0;
     for (int j = 1; j < got; j++)
         local += sqrt(d2[j]);
-    local /= got - 1;
-    return local > spacing && local > sample_spacing;
-}
-
-/* Mean distance from sample o to its SPACING_K nearest samples at the start
- * (the neighbour list is sorted by distance; context samples included). */
-static double sample_spacing(const frames *f, size_t o)
-{
-    int got = f->cnt[o] < SPACING_K ? f->cnt[o] : SPACING_K;
-    const double *p = f->pos + 3 * o;
-    double sum = 0;
-    for (int j = 0; j < got; j++) {
-        const double *q = f->pos + 3 * (size_t)f->nb[o * (size_t)f->k + j];
-        double dx = q[0] - p[0], dy = q[1] - p[1], dz = q[2] - p[2];
-        sum += sqrt(dx * dx + dy * dy + dz * dz);
-    }
-    return got ? sum / got : INFINITY;
+    return got > 1 && local / (got - 1) > spacing;
 }
 
 /* Keeps a moved sample p within the input's local spacing of the input,
@@ -440,8 +415,7 @@ static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
 {
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
     for (size_t o = 0; o < f->n; o++)
-        if (f->still[o] == FREE &&
-            off_surface(in->surface, f->pos + 3 * o, in->spacing, sample_spacing(f, o)))
+        if (f->still[o] == FREE && off_surface(in->surface, f->pos + 3 * o, in->spacing))
             f->still[o] = STILL_ISOLATED;
 }
 
