@@ -262,9 +262,11 @@ enum { VORONOI_NEIGHBOURS = 8 };
  * the cell's centre (successive over-relaxation; 1 is plain Lloyd). The
  * guards cut whatever overshoots into a neighbour's spacing or uncovers an
  * input point. On the 18 quality cases (5 iterations), against 1.0: the
- * Voronoi CV lower in 16 (by up to 2.2 %; at most 0.2 % higher in 2), the
- * local CV lower in 15, equal in 2, 0.3 % higher on the terrain at 10 K;
- * 1.3 gained about two thirds as much (docs/algorithm.md, section 4). */
+ * Voronoi CV lower in 16 (by up to 6.3 %; 0.6 % higher in 1), the local
+ * CV lower in 12 (by up to 0.9 %; 0.35 % higher in 1), the same Hausdorff
+ * distance, rho lower by up to 4.6 %; 1.3 gained less (the Voronoi CV the
+ * lowest of the four rows in 13 cases with either, all criteria met in 6
+ * against 7; docs/algorithm.md, section 4). */
 #define OVER_RELAX 1.5
 
 /* The move (3D, within the tangent plane) that takes sample o from its

@@ -45,11 +45,12 @@
 #include "core/knn.h"
 
 /* No two samples end closer than this fraction of their Poisson distance.
- * 0.82 rather than 0.75: the normalised Poisson radius rho of a smoothed
- * sample is about this fraction of the unsmoothed one's (0.62-0.93 on the
- * scans), and at 0.75 it fell to 0.47 on lato270 at 10 K; at 0.82 rho >= 0.5
- * wherever the Poisson sample has rho >= 0.61, with local and Voronoi CV
- * within 0.2 % of 0.75's on the 18 quality cases (docs/algorithm.md,
+ * 0.82 rather than 0.75: smoothing brings d_min down to the floor and so
+ * the normalised Poisson radius rho to about this fraction of the Poisson
+ * sample's; at 0.75 rho fell below 0.5 on lato270 and lato315 at 10 K
+ * (0.497, 0.494). At 0.82 rho >= 0.5 in 17 of the 18 quality cases (all
+ * whose Poisson sample has rho >= 0.6), 0.53-0.76; the Voronoi CV within
+ * 0.7 % and the local CV within 0.2 % of 0.75's (docs/algorithm.md,
  * section 4). */
 #define WPD_SMOOTH_KEEP 0.82
 
