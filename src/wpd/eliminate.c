@@ -311,6 +311,38 @@ static int sort_by_rank(const wpd_eliminate *e, const double *crowd, uint32_t *i
     return 0;
 }
 
+/* The k-th smallest of a[0..m-1] (k < m; a is reordered): the value
+ * qsort would put at a[k], in linear expected time (Hoare's selection). */
+static double kth_smallest(double *a, size_t m, size_t k)
+{
+    size_t lo = 0, hi = m - 1;
+    while (lo < hi) {
+        double pivot = a[lo + (hi - lo) / 2];
+        size_t i = lo, j = hi;
+        while (i <= j) {
+            while (a[i] < pivot)
+                i++;
+            while (a[j] > pivot)
+                j--;
+            if (i <= j) {
+                double t = a[i];
+                a[i] = a[j], a[j] = t;
+                i++;
+                if (j == 0)
+                    break;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            return a[k];
+    }
+    return a[k];
+}
+
 /* Among candidates of similar cost, the crowded go first (as in Yuksel's
  * weighted sample elimination): a sample whose nearest live sample lies
  * closer than the median of that distance over the live samples, d < med,
@@ -336,8 +368,7 @@ static int crowding(const wpd_eliminate *e, double *crowd, double *tmp)
     }
     if (e->live == 0)
         return 0;
-    qsort(tmp, e->live, sizeof *tmp, cmp_double);
-    double med = tmp[e->live / 2];
+    double med = kth_smallest(tmp, e->live, e->live / 2);
     for (size_t i = 0; i < e->live; i++) {
         uint32_t s = e->live_idx[i];
         double f = med > 0 && crowd[s] < med ? crowd[s] / med : 1;
