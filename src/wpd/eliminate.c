@@ -350,11 +350,11 @@ static double kth_smallest(double *a, size_t m, size_t k)
  * Only the order among the candidates changes, not which samples are
  * candidates (their cost bound, below), so no larger hole can open than
  * before: on the 18 quality cases (docs/benchmarks.md) the Hausdorff
- * distance grew by at most 0.8 %, d_min and the local CV of the samples
- * improved slightly (NC Raleigh 10 K: local CV 0.0944 -> 0.0941 without
- * smoothing, 0.0899 -> 0.0892 with it). Global over the live samples and
- * by coordinates only: the same for any threads or tiles. tmp: room for
- * e->live doubles. Returns 0, or -1 out of memory. */
+ * distance grew by at most 0.8 % and the local CV moved by at most 0.6 %
+ * (NC Raleigh 10 K: 0.0944 -> 0.0941 without smoothing; docs/algorithm.md,
+ * section 3). Global over the live samples and by coordinates only: the
+ * same for any threads or tiles. tmp: room for e->live doubles (reordered).
+ * Returns 0. */
 static int crowding(const wpd_eliminate *e, double *crowd, double *tmp)
 {
     double r = e->spacing;
