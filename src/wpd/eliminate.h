@@ -14,13 +14,15 @@
  *      order, from any number of blocks): the costs of the live samples;
  *   2. wpd_eliminate_sweep takes the samples up to the cost of rank
  *      q + min(q, live / 20) (q: deletions still to make) in order of
- *      (cost, index) and deletes each one that has no sample deleted
- *      before it in the sweep within twice the larger of their costs,
- *      until q are deleted.
+ *      (rank, index), rank = cost x a crowding factor <= 1 (the crowded
+ *      first among similar costs: (d / median d)^2 for a sample whose
+ *      nearest live sample lies at d below the median of d), and deletes
+ *      each one that has no sample deleted before it in the sweep within
+ *      twice the larger of their costs, until q are deleted.
  * Two samples deleted in one sweep never touch each other's regions or
  * second-nearest samples (the rule of step 2), so each opens exactly the
- * hole its cost says. A sweep always deletes at least the sample of smallest
- * cost. The result depends only on the coordinates of the samples and of
+ * hole its cost says. A sweep always deletes at least the candidate of
+ * smallest rank. The result depends only on the coordinates of the samples and of
  * the input points and on the sample order (ties by index): not on the
  * threads, nor on how the input is cut into blocks.
  *

@@ -258,9 +258,20 @@ static void project_on_surface(const wpd_grid *surface, const frames *f, size_t 
  * 0.257, 0.113, 0.285). */
 enum { VORONOI_NEIGHBOURS = 8 };
 
+/* Over-relaxed Lloyd: the planned move goes OVER_RELAX times the way to
+ * the cell's centre (successive over-relaxation; 1 is plain Lloyd). The
+ * guards cut whatever overshoots into a neighbour's spacing or uncovers an
+ * input point. On the 18 quality cases (5 iterations), against 1.0: the
+ * Voronoi CV lower in 16 (by up to 6.3 %; 0.6 % higher in 1), the local
+ * CV lower in 12 (by up to 0.9 %; 0.35 % higher in 1), the same Hausdorff
+ * distance, rho lower by up to 4.6 %; 1.3 gained less (the Voronoi CV the
+ * lowest of the four rows in 13 cases with either, all criteria met in 6
+ * against 7; docs/algorithm.md, section 4). */
+#define OVER_RELAX 1.5
+
 /* The move (3D, within the tangent plane) that takes sample o from its
- * previous position to the chosen centre of its Voronoi cell; returns 0 if
- * the cell is open (the sample stays). */
+ * previous position OVER_RELAX times the way to the chosen centre of its
+ * Voronoi cell; returns 0 if the cell is open (the sample stays). */
 static int cell_move(const wpd_smooth_input *in, const frames *f, const double *prev, size_t o,
                      double m[3])
 {
@@ -292,7 +303,7 @@ static int cell_move(const wpd_smooth_input *in, const frames *f, const double *
     else
         memcpy(c, in->mode == WPD_SMOOTH_VERTEX_MEAN ? cell.vertex_mean : cell.centroid, sizeof c);
     for (int a = 0; a < 3; a++)
-        m[a] = ok ? c[0] * u[a] + c[1] * v[a] : 0;
+        m[a] = ok ? OVER_RELAX * (c[0] * u[a] + c[1] * v[a]) : 0;
     return ok;
 }
 
