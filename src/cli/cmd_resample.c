@@ -1,5 +1,6 @@
 /* cmd_resample.c - `wpd resample IN... -o OUT -n N`: Weighted Poisson-disk
  * resampling of a cloud held in memory (one block). */
+#include "cli/class_options.h"
 #include "cli/commands.h"
 #include "cli/report.h"
 #include "cli/selection.h"
@@ -8,6 +9,7 @@
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "metrics.h"
+#include "resample/classes.h"
 #include "resample/resample.h"
 #include "wpd/smooth.h"
 
@@ -51,6 +53,15 @@ static const char *usage_text =
     "                        0 not) as the field \"edge\" (LAS: an extra byte with\n"
     "                        its Extra Bytes VLR; PLY: uchar); an input field of that\n"
     "                        name is replaced\n"
+    "      --drop-class LIST remove the points of these classes first (LIST: numbers\n"
+    "                        and ranges, e.g. 7,18 or 2,6,9-12)\n"
+    "      --keep-class LIST copy the points of these classes untouched (not moved,\n"
+    "                        not counted in N)\n"
+    "      --class-count C=N resample class C to exactly N points on its own\n"
+    "                        (repeatable); -n N is then the count of the classes\n"
+    "                        not named (a percentage: of their points)\n"
+    "      --class-field F   the integer field holding the class (default\n"
+    "                        classification; LAS formats 0-5: its low 5 bits)\n"
     "      --seed S          visiting order of the Poisson pass (0)\n"
     "      --smooth-mode M   centroid (Lloyd step, default), vertex-mean (the authors'\n"
     "                        release) or cotan (eq. 8 as printed; moves nothing)\n"
@@ -87,6 +98,7 @@ typedef struct resample_options {
     int quiet, verbose;
     int metrics;              /* quality summary (wpd metrics) of the result */
     int edge_label;           /* write the sharp labels as the field "edge" */
+    wpd_class_args classes;   /* --drop-class, --keep-class, --class-count, --class-field */
     wpd_progress progress;
     wpd_params params;
     wpd_write_options write;
@@ -149,7 +161,20 @@ static int parse_positive(const char *text, double lo, double hi, double *out)
 enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
        OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
        OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT,
-       OPT_SKIP_EXISTING, OPT_METRICS, OPT_EDGE_LABEL };
+       OPT_SKIP_EXISTING, OPT_METRICS, OPT_EDGE_LABEL, OPT_DROP_CLASS, OPT_KEEP_CLASS,
+       OPT_CLASS_COUNT, OPT_CLASS_FIELD };
+
+/* The class options: 0, or -2 with the one-line error printed. */
+static int parse_class_option(int c, const char *arg, wpd_class_args *a)
+{
+    wpd_error err = {0};
+    int rc = c == OPT_DROP_CLASS ? wpd_class_list_parse(arg, &a->drop, &err)
+             : c == OPT_KEEP_CLASS ? wpd_class_list_parse(arg, &a->keep, &err)
+                                   : wpd_class_count_parse(arg, a, &err);
+    if (rc)
+        fprintf(stderr, "wpd resample: %s\n", err.msg);
+    return rc ? -2 : 0;
+}
 
 static int parse_option(int c, const char *arg, resample_options *o)
 {
@@ -184,6 +209,9 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_SKIP_EXISTING: o->skip_existing = 1; return 0;
     case OPT_METRICS: o->metrics = 1; return 0;
     case OPT_EDGE_LABEL: o->edge_label = 1; return 0;
+    case OPT_DROP_CLASS: case OPT_KEEP_CLASS: case OPT_CLASS_COUNT:
+        return parse_class_option(c, arg, &o->classes);
+    case OPT_CLASS_FIELD: o->classes.field = arg; return 0;
     case OPT_MEM: return parse_size(arg, &o->mem_bytes);
     case OPT_MIN_TILES: if (parse_positive(arg, 1, 1e6, &v)) return -1; o->min_tiles = (int)v; return 0;
     case OPT_RADIUS_EST:
@@ -215,6 +243,10 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"skip-existing", no_argument, 0, OPT_SKIP_EXISTING},
         {"metrics", no_argument, 0, OPT_METRICS},
         {"edge-label", no_argument, 0, OPT_EDGE_LABEL},
+        {"drop-class", required_argument, 0, OPT_DROP_CLASS},
+        {"keep-class", required_argument, 0, OPT_KEEP_CLASS},
+        {"class-count", required_argument, 0, OPT_CLASS_COUNT},
+        {"class-field", required_argument, 0, OPT_CLASS_FIELD},
         {"min-tiles", required_argument, 0, OPT_MIN_TILES},
         {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
     memset(o, 0, sizeof *o);
@@ -226,7 +258,10 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
             fputs(usage_text, stdout);
             return 1;
         }
-        if (c == '?' || parse_option(c, optarg, o)) {
+        int bad = c == '?' ? -1 : parse_option(c, optarg, o);
+        if (bad == -2)
+            return -1;
+        if (bad) {
             if (c != '?')
                 fprintf(stderr, "wpd resample: invalid value '%s' for %s\n", optarg,
                         c < 256 ? (char[]){'-', (char)c, 0} : longopts[idx].name);
@@ -248,6 +283,11 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
     if (o->edge_label && !o->params.sharp) {
         fprintf(stderr, "wpd resample: --edge-label goes with --sharp (the labels come from "
                 "its detector)\n");
+        return -1;
+    }
+    wpd_error cerr = {0};
+    if (wpd_class_args_check(&o->classes, &cerr)) {
+        fprintf(stderr, "wpd resample: %s\n", cerr.msg);
         return -1;
     }
     if (o->output && wpd_format_from_name(o->output) == WPD_FMT_NONE) {
@@ -354,6 +394,8 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
     const wpd_resample_timings *t = &r->time;
     printf("resampled %llu -> %zu points into %s\n", (unsigned long long)r->input_points,
            r->count, o->output ? o->output : o->per_input);
+    if (info->classes)
+        wpd_class_print_summary(info->classes);
     printf("  radius %.6g (estimate %.6g, first pass %zu points, %d passes, %zu before the "
            "exact count, %d sweeps)\n", r->radius, r->radius_estimate, r->first_pass_count,
            r->passes, r->poisson_count, r->exact_sweeps);
@@ -484,6 +526,30 @@ static int check_outputs(char **inputs, int ninputs, const resample_options *o, 
     return 0;
 }
 
+/* The run by class (resample/classes.h): -n is the count of the classes
+ * not named, a percentage one of their points. The merged result moves
+ * into res, the classes' facts stay in cr. */
+static int run_by_class(wpd_cloud *cloud, const resample_options *o,
+                        const wpd_resample_options *ro, wpd_resample_result *res,
+                        wpd_class_result *cr, wpd_run_info *info, wpd_error *err)
+{
+    wpd_class_options co;
+    if (wpd_class_args_resolve(&o->classes, cloud, &co, err))
+        return -1;
+    char *end;
+    double percent = strtod(o->count_text, &end);
+    co.rest_count = ro->target;
+    if (*end == '%')
+        co.rest_percent = percent; /* parse_count checked it */
+    if (wpd_resample_by_class(cloud, &co, ro, o->quiet, cr, err))
+        return -1;
+    *res = cr->merged;
+    memset(&cr->merged, 0, sizeof cr->merged);
+    info->classes = cr;
+    info->target = cr->groups[0].target;
+    return 0;
+}
+
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
     if (check_outputs(inputs, ninputs, o, err))
@@ -501,6 +567,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     int rc = -1;
     wpd_selection sel = {0};
     wpd_resample_result res = {0};
+    wpd_class_result classes = {0};
     pending_files pending = {0};
     char *metrics_json = NULL;
     wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
@@ -516,7 +583,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
     output_lattice(cloud, o, o->params.resolution);
-    if (target >= wpd_cloud_count(cloud) && !o->quiet)
+    if (target >= wpd_cloud_count(cloud) && !o->quiet && !wpd_class_args_used(&o->classes))
         fprintf(stderr, "wpd resample: notice: -n %llu >= %llu input points: copying the "
                 "input\n", (unsigned long long)target,
                 (unsigned long long)wpd_cloud_count(cloud));
@@ -526,7 +593,9 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     char dir[1024];
     wpd_resample_options ro = {target, o->mem_bytes, spill_dir(o, dir, sizeof dir),
                                o->min_tiles, o->params, &o->progress};
-    rc = wpd_resample_run(cloud, &ro, &res, err);
+    rc = wpd_class_args_used(&o->classes)
+             ? run_by_class(cloud, o, &ro, &res, &classes, &info, err)
+             : wpd_resample_run(cloud, &ro, &res, err);
     /* The selection borrows the result's arrays. */
     sel = (wpd_selection){res.count, res.gid, res.xyz, res.records, res.record_size, res.moved,
                           res.radius / 1000, o->edge_label ? res.edge : NULL};
@@ -550,6 +619,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
 done:
     pending_close(&pending, o);
     wpd_resample_result_free(&res);
+    wpd_class_result_free(&classes);
     free(metrics_json);
     wpd_cloud_close(cloud);
     return rc;
@@ -608,6 +678,7 @@ int wpd_cmd_resample(int argc, char **argv)
     if (lock < 0)
         return wpd_report_error("resample", &err);
     rc = resample(inputs, ninputs, &o, &err);
+    wpd_class_args_free(&o.classes);
     wpd_output_unlock(lock, target);
     return rc ? wpd_report_error("resample", &err) : 0;
 }

@@ -84,6 +84,42 @@ static void write_tiles(FILE *f, const wpd_run_info *info)
     fputs("]},\n", f);
 }
 
+const char *wpd_class_role_name(wpd_class_role role)
+{
+    static const char *const names[] = {"rest", "drop", "keep", "count"};
+    return names[role];
+}
+
+/* A run by class: the points of every class present, and each resampled
+ * group's count and radius. */
+static void write_classes(FILE *f, const wpd_class_result *c)
+{
+    fputs("  \"classes\": [", f);
+    for (int i = 0; i < c->nlines; i++) {
+        const wpd_class_line *l = &c->lines[i];
+        fprintf(f, "%s{\"class\": %ld, \"role\": \"%s\", \"input_points\": %llu, "
+                   "\"output_points\": %llu}", i ? ", " : "", l->cls,
+                wpd_class_role_name(l->role), (unsigned long long)l->in,
+                (unsigned long long)l->out);
+    }
+    fputs("],\n  \"class_groups\": [", f);
+    for (int i = 0; i < c->ngroups; i++) {
+        const wpd_class_group *g = &c->groups[i];
+        fputs(i ? ", {\"class\": " : "{\"class\": ", f);
+        if (g->cls < 0)
+            fputs("null", f);
+        else
+            fprintf(f, "%ld", g->cls);
+        fprintf(f, ", \"input_points\": %llu, \"target\": %llu, \"whole\": %s, "
+                   "\"output_points\": %llu, \"radius\": ", (unsigned long long)g->points,
+                (unsigned long long)g->target, g->whole ? "true" : "false",
+                (unsigned long long)(g->whole ? g->points : g->run.count));
+        wpd_json_number(f, g->whole ? 0 : g->run.radius);
+        fputs("}", f);
+    }
+    fprintf(f, "],\n  \"dropped_by_class\": %llu,\n", (unsigned long long)c->dropped);
+}
+
 static void write_body(FILE *f, const wpd_run_info *r)
 {
     const wpd_resample_result *run = r->run;
@@ -111,6 +147,8 @@ static void write_body(FILE *f, const wpd_run_info *r)
             run->guarded_moves);
     write_phases(f, r);
     write_tiles(f, r);
+    if (r->classes)
+        write_classes(f, r->classes);
     fprintf(f, "  \"peak_rss_bytes\": %lld,\n", (long long)r->peak_rss_kb * 1024);
     fprintf(f, "  \"metrics\": %s}\n", r->metrics_json ? r->metrics_json : "null\n");
 }

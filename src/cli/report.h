@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "common/outfile.h"
+#include "resample/classes.h"
 #include "resample/resample.h"
 
 typedef struct wpd_run_info {
@@ -23,6 +24,7 @@ typedef struct wpd_run_info {
     const wpd_params *params;
     /* what happened */
     const wpd_resample_result *run;
+    const wpd_class_result *classes; /* a run by class, or NULL */
     uint64_t dropped;             /* non-finite points dropped */
     double t_write, t_total;
     long peak_rss_kb;
@@ -36,5 +38,8 @@ typedef struct wpd_run_info {
  * Returns 0, or -1 with err set and nothing left. */
 int wpd_report_write(const char *path, const wpd_run_info *info, wpd_outfile *pending,
                      wpd_error *err);
+
+/* "rest", "drop", "keep" or "count". */
+const char *wpd_class_role_name(wpd_class_role role);
 
 #endif

@@ -15,6 +15,8 @@ struct wpd_cloud {
     uint64_t *delivered;      /* [nfiles] points returned per file since rewind */
     int all_seek;             /* every file's reader can seek */
     int bounded;              /* reads stop at the end of a stretch (wpd_cloud_seek_stretch) */
+    const wpd_point_filter *filter; /* classes delivered, or NULL: all */
+    uint64_t filtered;        /* finite points the filter skipped */
 };
 
 /* Two dimensions agree if everything but a coordinate's scale/offset does. */
@@ -140,12 +142,46 @@ static void close_current(wpd_cloud *c)
     }
 }
 
+long wpd_class_of(const wpd_dim *f, const uint8_t *record)
+{
+    double v = wpd_dim_get(f, record);
+    return v >= 0 && v <= WPD_CLASS_MAX && v == (long)v ? (long)v : -1;
+}
+
+/* Keeps the points of b whose class the filter accepts, in order. Returns
+ * how many, or -1 with err set (a class out of range). */
+static long apply_filter(wpd_cloud *c, wpd_batch *b, wpd_error *err)
+{
+    const wpd_point_filter *f = c->filter;
+    size_t rs = b->record_size, kept = 0;
+    for (size_t i = 0; i < b->n; i++) {
+        const uint8_t *rec = b->records + i * rs;
+        long cls = wpd_class_of(&f->field, rec);
+        if (cls < 0)
+            return wpd_fail(err, WPD_E_INPUT, "%s: field %s holds %g, not a class (an integer "
+                            "in 0-%d)", c->headers[c->current].path, f->field.name,
+                            wpd_dim_get(&f->field, rec), WPD_CLASS_MAX);
+        if (!f->accept[cls])
+            continue;
+        if (kept != i) {
+            memmove(b->records + kept * rs, rec, rs);
+            memcpy(b->xyz + 3 * kept, b->xyz + 3 * i, 3 * sizeof *b->xyz);
+        }
+        kept++;
+    }
+    c->filtered += b->n - kept;
+    b->n = kept;
+    return (long)kept;
+}
+
 long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err)
 {
     while (c->current < c->nfiles) {
         if (!c->reader && !(c->reader = wpd_reader_open(c->headers[c->current].path, err)))
             return -1;
         long got = wpd_reader_read(c->reader, b, err);
+        if (got > 0 && c->filter && (got = apply_filter(c, b, err)) == 0)
+            continue; /* nothing of this batch is wanted: read on */
         if (got != 0) {
             if (file)
                 *file = c->current;
@@ -173,6 +209,8 @@ wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err)
         paths[i] = c->headers[i].path;
     wpd_cloud *copy = wpd_cloud_open(paths, c->nfiles, err);
     free(paths);
+    if (copy)
+        copy->filter = c->filter;
     return copy;
 }
 
@@ -204,6 +242,7 @@ void wpd_cloud_add_counts(wpd_cloud *c, const wpd_cloud *from)
     for (int i = 0; i < c->nfiles && i < from->nfiles; i++)
         c->delivered[i] += from->delivered[i];
     c->dropped_closed += wpd_cloud_dropped(from);
+    c->filtered += from->filtered;
 }
 
 int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err)
@@ -213,6 +252,7 @@ int wpd_cloud_rewind(wpd_cloud *c, wpd_error *err)
     c->bounded = 0;
     c->current = 0;
     c->dropped_closed = 0;
+    c->filtered = 0;
     memset(c->delivered, 0, (size_t)c->nfiles * sizeof *c->delivered);
     return 0;
 }
@@ -223,6 +263,10 @@ uint64_t wpd_cloud_dropped(const wpd_cloud *c)
 {
     return c->dropped_closed + (c->reader ? wpd_reader_dropped(c->reader) : 0);
 }
+
+void wpd_cloud_set_filter(wpd_cloud *c, const wpd_point_filter *f) { c->filter = f; }
+
+uint64_t wpd_cloud_filtered(const wpd_cloud *c) { return c->filtered; }
 
 void wpd_bounds_reset(wpd_bounds *b)
 {

@@ -69,6 +69,31 @@ uint64_t wpd_cloud_delivered(const wpd_cloud *c, int i);
 /* Non-finite points dropped so far over all files. */
 uint64_t wpd_cloud_dropped(const wpd_cloud *c);
 
+/* Classes: the values 0..WPD_CLASS_MAX of an integer field (LAS:
+ * classification, its low 5 bits for point formats 0-5; PLY: a property
+ * the caller names) that select the points a run sees. */
+#define WPD_CLASS_MAX 65535
+
+typedef struct wpd_point_filter {
+    wpd_dim field;            /* the class field (as in every file's schema) */
+    const uint8_t *accept;    /* [WPD_CLASS_MAX + 1]: 1 for the classes read */
+} wpd_point_filter;
+
+/* The class of one record of schema field f: its value, or -1 when it is
+ * not an integer in 0..WPD_CLASS_MAX. */
+long wpd_class_of(const wpd_dim *f, const uint8_t *record);
+
+/* From now on (and in its reopened copies) c delivers only the finite
+ * points whose class f accepts (f, kept by the caller, outlives c; NULL:
+ * every finite point again). The others are skipped and counted
+ * (wpd_cloud_filtered), and global indices run over the points delivered,
+ * so a run over a filtered cloud is the run over a file holding only those
+ * points. A record whose class is out of range fails the read (WPD_E_INPUT,
+ * naming the file and the field). */
+void wpd_cloud_set_filter(wpd_cloud *c, const wpd_point_filter *f);
+/* Finite points skipped by the filter so far over all files. */
+uint64_t wpd_cloud_filtered(const wpd_cloud *c);
+
 /* Streams the whole cloud once (from the start) computing the bounds of the
  * finite points, then rewinds. */
 int wpd_cloud_bounds(wpd_cloud *c, wpd_bounds *out, wpd_error *err);

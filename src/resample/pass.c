@@ -158,11 +158,11 @@ static void run_parallel(pass_state *s, int l)
     }
 }
 
-/* Records the shared cloud has gone through: every record is either a
- * delivered point or a dropped one. */
+/* Records the shared cloud has gone through: every record is a delivered
+ * point, a dropped one or one its filter skipped. */
 static uint64_t records_read(const wpd_cloud *c)
 {
-    uint64_t n = wpd_cloud_dropped(c);
+    uint64_t n = wpd_cloud_dropped(c) + wpd_cloud_filtered(c);
     for (int f = 0; f < wpd_cloud_nfiles(c); f++)
         n += wpd_cloud_delivered(c, f);
     return n;
