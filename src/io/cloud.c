@@ -98,6 +98,8 @@ uint64_t wpd_cloud_count(const wpd_cloud *c)
 int wpd_cloud_declared_bounds(const wpd_cloud *c, wpd_bounds *out)
 {
     wpd_bounds_reset(out);
+    if (c->filter) /* the headers' box is all classes' */
+        return 0;
     for (int i = 0; i < c->nfiles; i++) {
         const wpd_header *h = &c->headers[i];
         if (h->format != WPD_FMT_LAS)

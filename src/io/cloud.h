@@ -106,7 +106,8 @@ void wpd_cloud_close(wpd_cloud *c);
 void wpd_cloud_print_warnings(const wpd_cloud *c, const char *command, FILE *f);
 
 /* The box the headers declare: 1 with out set (union of the boxes, count =
- * the declared records) when every file declares one (LAS), else 0. */
+ * the declared records) when every file declares one (LAS) and no filter is
+ * set (the box is every class's), else 0. */
 int wpd_cloud_declared_bounds(const wpd_cloud *c, wpd_bounds *out);
 
 /* Whether a declared box can stand for the actual one as the frame of a

@@ -72,8 +72,11 @@ static int class_histogram(wpd_cloud *cloud, const wpd_class_options *o,
     histogram h = {cloud, &o->field, calloc((size_t)threads * NCLASSES, sizeof(uint64_t))};
     if (!h.lane)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the class histogram");
-    wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &h};
+    wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &h,
+                     .progress = opt->progress};
+    wpd_progress_phase(opt->progress, "classes", wpd_cloud_count(cloud), "points");
     int rc = wpd_cloud_rewind(cloud, err) || wpd_pass_run(&pass, err) ? -1 : 0;
+    wpd_progress_end(opt->progress);
     for (int l = 0; l < threads; l++)
         for (size_t k = 0; k < NCLASSES; k++)
             count[k] += h.lane[(size_t)l * NCLASSES + k];
@@ -153,6 +156,29 @@ static void add_times(wpd_resample_timings *sum, const wpd_resample_timings *t)
     sum->bounds += t->bounds, sum->scan += t->scan, sum->plan += t->plan;
     sum->tile += t->tile, sum->poisson += t->poisson, sum->exact += t->exact;
     sum->smooth += t->smooth, sum->records += t->records, sum->total += t->total;
+}
+
+/* Refuses, before the runs, an output that does not fit the budget twice
+ * over: the groups' samples are held until the merge copies them, with the
+ * kept points, into the output (both in memory until the output side is
+ * out of core, issue 12). */
+static int check_output_fits(const wpd_class_result *out, const uint64_t *count,
+                             const wpd_class_options *o, size_t record_size, size_t mem,
+                             wpd_error *err)
+{
+    uint64_t n = 0;
+    for (long c = 0; c < NCLASSES; c++)
+        n += wpd_class_role_of(o, c) == WPD_CLASS_KEEP ? count[c] : 0;
+    for (int i = 0; i < out->ngroups; i++) {
+        const wpd_class_group *g = &out->groups[i];
+        n += g->whole ? g->points : g->target;
+    }
+    double need = 2.0 * (double)n * (double)(sizeof(uint64_t) + 3 * sizeof(double) + record_size + 1);
+    if (need > (double)mem)
+        return wpd_fail(err, WPD_E_MEMORY, "memory budget too small: the %llu output points "
+                        "(kept classes included) need at least %.0f MiB (--mem)",
+                        (unsigned long long)n, need / 1048576.0);
+    return 0;
 }
 
 /* Runs the driver for group g over the cloud filtered to it, in what the
@@ -319,8 +345,11 @@ static int merge_pass(wpd_cloud *cloud, const wpd_class_options *o,
     int want = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
     wpd_pass pass = {.cloud = cloud, .commit = merge_commit, .arg = &mg,
                      .threads = wpd_budget_pass_threads(opt->mem_bytes, want, 0,
-                                                        wpd_pass_lane_bytes(cloud))};
+                                                        wpd_pass_lane_bytes(cloud)),
+                     .progress = opt->progress};
+    wpd_progress_phase(opt->progress, "merge", wpd_cloud_count(cloud), "points");
     rc = wpd_cloud_rewind(cloud, err) || wpd_pass_run(&pass, err) ? -1 : 0;
+    wpd_progress_end(opt->progress);
     wpd_cloud_set_filter(cloud, NULL);
     for (int f = 0; rc == 0 && f < out->merged.nfiles; f++)
         out->merged.file_count[f] = wpd_cloud_delivered(cloud, f);
@@ -387,7 +416,9 @@ int wpd_resample_by_class(wpd_cloud *cloud, const wpd_class_options *o,
         wpd_fail(err, WPD_E_MEMORY, "out of memory");
         goto done;
     }
-    if (class_histogram(cloud, o, opt, count, err) || plan_groups(o, count, quiet, out, err))
+    if (class_histogram(cloud, o, opt, count, err) || plan_groups(o, count, quiet, out, err) ||
+        check_output_fits(out, count, o, wpd_cloud_header(cloud, 0)->schema.record_size,
+                          opt->mem_bytes, err))
         goto done;
     if (!quiet)
         notice_absent(o, count);

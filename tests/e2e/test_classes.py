@@ -7,18 +7,15 @@ from collections import Counter
 
 import numpy as np
 
-from formats import read_las, read_ply
+from formats import las_xyz_int, read_las, read_ply
 from harness import data, wpd
 
-CLASS_BYTE = 15  # LAS point formats 0-5: classification byte, class in bits 0-4
-
-
 def records(path):
-    """The raw point records of a LAS file and their classes."""
+    """The raw point records of a LAS file and their classes: formats 0-5
+    keep the class in bits 0-4 of byte 15, formats 6-10 in all of byte 16."""
     h = read_las(path)
     rec = np.frombuffer(h["points"], np.uint8).reshape(-1, h["record_length"])
-    assert h["pdrf"] <= 5
-    return rec, rec[:, CLASS_BYTE] & 31
+    return rec, rec[:, 15] & 31 if h["pdrf"] <= 5 else rec[:, 16]
 
 
 def as_set(rec):
@@ -96,6 +93,19 @@ def test_autzen_ground_and_the_rest_get_their_own_counts():
     # every output record is an input record apart from the smoothed coordinates
     tails = Counter(bytes(r[12:]) for r in rin)
     assert all(tails[bytes(r[12:])] > 0 for r in rout)
+
+
+def test_las_1_4_point_format_7_reads_its_full_class_byte():
+    src = data("las", "pdal_autzen_trim_7.las")
+    _, cin = records(src)
+    assert set(np.unique(cin)) == {1, 2}
+    wpd("resample", src, "-o", "out.las", "-n", 2000, "--class-count", "2=4000", "--no-smooth")
+    _, cout = records("out.las")
+    assert (cout == 2).sum() == 4000 and (cout == 1).sum() == 2000
+    # the same points as the PDRF 3 twin: the same selection
+    wpd("resample", data("las", "pdal_autzen_trim.las"), "-o", "twin.las", "-n", 2000,
+        "--class-count", "2=4000", "--no-smooth")
+    assert (las_xyz_int(read_las("out.las")) == las_xyz_int(read_las("twin.las"))).all()
 
 
 def test_percentages_are_of_the_classes_not_named():
