@@ -190,3 +190,23 @@ def test_per_input_with_classes_splits_exact_totals():
     assert sum((c == 6).sum() for c in outs) == total_keep
     assert sum(((c != 6) & (c != 7)).sum() for c in outs) == 1500
     assert all((c != 7).all() for c in outs)
+
+
+def test_a_value_that_is_no_class_is_a_one_line_input_error():
+    n = 5000
+    v = np.zeros(n, dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("label", "<i4")])
+    v["x"], v["y"] = np.arange(n) % 71, np.arange(n) // 71
+    v["label"] = 1
+    v["label"][4321] = 70000
+    head = ("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\n"
+            "property float y\nproperty float z\nproperty int label\nend_header\n" % n)
+    with open("in.ply", "wb") as f:
+        f.write(head.encode() + v.tobytes())
+    before = open("in.ply", "rb").read()
+    p = wpd("resample", "in.ply", "-o", "out.ply", "-n", 100, "--class-field", "label",
+            "--drop-class", 5, "--tmpdir", ".", check=False)
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "in.ply" in lines[0] and "70000" in lines[0], p.stderr
+    assert sorted(os.listdir(".")) == ["in.ply"], os.listdir(".")
+    assert open("in.ply", "rb").read() == before
