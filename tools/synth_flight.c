@@ -10,7 +10,14 @@
 #include <string.h>
 
 #define SCAN_HALF_ANGLE (22.0 * 3.14159265358979323846 / 180.0)
-#define OBLIQUE_HALF_ANGLE (65.0 * 3.14159265358979323846 / 180.0)
+#ifndef OBLIQUE_OUTER_DEGREES
+#define OBLIQUE_OUTER_DEGREES 70.0
+#endif
+#ifndef OBLIQUE_INNER_DEGREES
+#define OBLIQUE_INNER_DEGREES 40.0
+#endif
+#define OBLIQUE_HALF_ANGLE (OBLIQUE_OUTER_DEGREES * 3.14159265358979323846 / 180.0)
+#define OBLIQUE_INNER_ANGLE (OBLIQUE_INNER_DEGREES * 3.14159265358979323846 / 180.0)
 #define SWATH_MIN 60.0          /* small scenes are low (UAV-like) surveys */
 #define SWATH_MAX 500.0
 #define SIDE_OVERLAP 0.30
@@ -55,6 +62,7 @@ static void plan_strips(flight *f, const scene *sc, int oblique)
     if (oblique) {
         double reach = f->height * tan(OBLIQUE_HALF_ANGLE);
         f->half_angle = OBLIQUE_HALF_ANGLE;
+        f->inner_angle = OBLIQUE_INNER_ANGLE;
         f->swath = 2 * reach;
         f->spacing = reach / 2;
         f->per_direction = (int)ceil((L + reach) / f->spacing - 1e-9) + 1;
@@ -71,10 +79,16 @@ static void plan_pulses(flight *f, double L, uint64_t points)
     for (int i = 0; i < f->strips; i++) {
         double c = strip_centre(f, i);
         covered += max2(0, min2(L, c + f->swath / 2) - max2(0, c - f->swath / 2)) * L;
+        if (f->inner_angle > 0) { /* the band under the track no pulse reaches */
+            double gap = f->height * tan(f->inner_angle);
+            covered -= max2(0, min2(L, c + gap) - max2(0, c - gap)) * L;
+        }
     }
     double pulses_per_m2 = (double)points / RETURNS_PRIOR / covered;
     double step = 1 / sqrt(pulses_per_m2);
-    int m = (int)(f->swath / step + 0.5);
+    int m = (int)(f->swath * (1 - tan(f->inner_angle) / tan(f->half_angle)) / step + 0.5);
+    if (f->inner_angle > 0)
+        m += m % 2; /* an even count: half of the steps on either side */
     f->pulses_per_line = m < 2 ? 2 : m > 1000000 ? 1000000 : m;
     f->line_spacing = step;
     /* One strip's spacing where strips barely overlap (the default survey);
@@ -85,13 +99,25 @@ static void plan_pulses(flight *f, double L, uint64_t points)
     f->line_period = step / clampd(GROUND_SPEED * f->swath / SWATH_MAX, MIN_GROUND_SPEED, GROUND_SPEED);
 }
 
-/* The mirror's sweep: equal angular steps over -22 .. +22 degrees (the
- * oblique survey: -65 .. +65). */
+/* The scan angle of step j of m: equal angular steps over -22 .. +22
+ * degrees, or for the oblique survey over -70 .. -40 and 40 .. 70 (the
+ * first half of the steps on the left, the second on the right). */
+static double step_angle(const flight *f, int j, int m)
+{
+    if (f->inner_angle <= 0)
+        return f->half_angle * (2 * (j + 0.5) / m - 1);
+    double width = f->half_angle - f->inner_angle;
+    if (j < m / 2)
+        return -f->half_angle + width * (j + 0.5) / (m / 2);
+    return f->inner_angle + width * (j - m / 2 + 0.5) / (m / 2);
+}
+
+/* The mirror's sweep, step by step (step_angle). */
 static void plan_sweep(flight *f)
 {
     const int m = f->pulses_per_line;
     for (int j = 0; j < m; j++) {
-        double a = f->half_angle * (2 * (j + 0.5) / m - 1);
+        double a = step_angle(f, j, m);
         f->tan_of[j] = tan(a);
         f->rank_of[j] = (int8_t)lround(a * 180 / 3.14159265358979323846);
         f->gain_of[j] = 0.6 + 0.4 * cos(a);
