@@ -45,6 +45,7 @@
 #define WPD_CREASE_FLATNESS 0.15
 #define WPD_CREASE_MIN_VARIATION 0.004
 #define WPD_CREASE_MAX_VARIATION 0.15
+#define WPD_CREASE_MAX_VARIATION3 0.34
 /* A steep face (|normal z| below WPD_CREASE_STEEP_COS, cos 45 degrees)
  * needs WPD_CREASE_MIN_OWN own points (farther than WPD_CREASE_OWN_TOL
  * flatness tolerances from the other face's plane), one of them
