@@ -141,7 +141,6 @@ static void tally(const points *p, const uint8_t *edge, const uint8_t *verdict,
         if (!edge[i] && verdict[i] < 16)
             s->missed_by_verdict[verdict[i]]++;
     }
-    if (getenv("DBG")) for (int k = 1; k < 5; k++) { fprintf(stderr, "kind %d:", k); for (int v = 0; v < 8; v++) fprintf(stderr, " %u", dbg[k][v]); fprintf(stderr, "\n"); }
 }
 
 /* Labels the points (edge) from the crease test's verdicts, which are
