@@ -53,7 +53,7 @@
 #define WPD_CREASE_STEEP_COS 0.70710678118654752
 #define WPD_CREASE_MIN_OWN 3
 #define WPD_CREASE_OWN_TOL 2.0
-#define WPD_CREASE_ROW_WIDTH 0.5
+#define WPD_CREASE_ROW_WIDTH 0.3
 
 /* Why a neighbourhood is or is not a crease (for measurements). */
 typedef enum wpd_crease_verdict {
