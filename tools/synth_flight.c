@@ -36,8 +36,9 @@ void synth_flight_free(flight *f)
  * swath and the scan angle.
  *
  * The oblique survey flies at the same height (so over the same scene:
- * the buildings' height limit depends on it) with a sweep of +-65
- * degrees, the field of view of a UAV or helicopter scanner, in strips a
+ * the buildings' height limit depends on it) with pulses leaning 35 to 65
+ * degrees to either side, as an oblique scanner's (a UAV's tilted head,
+ * a helicopter's side-looking ones) do, in strips a
  * quarter of the swath apart in both directions, north/south and
  * east/west, whose tracks extend a quarter swath beyond the scene on
  * either side: every point is seen from about four strips of each
@@ -45,7 +46,12 @@ void synth_flight_free(flight *f)
  * side at angles of up to 65 degrees (a wall takes tan(angle) times the
  * ground's pulses per square metre of one strip, so steep angles are what
  * samples it). Walls near the scene's border are seen from strips
- * outside it, as surveys plan their lines. */
+ * outside it, as surveys plan their lines. Why no pulse nearer nadir than
+ * 35 degrees: the ground takes pulses from every strip and direction, a
+ * wall only those leaning towards it, a quarter of them, so near-nadir
+ * pulses, which see no wall, thin the walls for a denser ground; without
+ * them a wall gets 3.8 points per square metre against the ground's 8.6
+ * (2.9 against 9.2 with a continuous +-65 degree sweep; 300 K seed 1). */
 static void plan_strips(flight *f, const scene *sc, int oblique)
 {
     double L = sc->side;
