@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """How much of `wpd synth --edge-truth`'s truth the survey lets a detector see:
 for each truth point, whether both faces of its crease carry input points
-within R of it (default 1.44 m: the detector's reach of 4 spacings). Faces
+within R of it (default 1.8 m: the detector's reach of 5 spacings). Faces
 (the creases are axis-aligned):
  1 ridge     roof points (class 6) on both sides of it in x or in y
  2 wall top  roof points at its height or above, and wall points below it
@@ -24,7 +24,7 @@ def field(h, off, t):
 
 def main():
     h = read_las(sys.argv[1])
-    R = float(sys.argv[2]) if len(sys.argv) > 2 else 1.44
+    R = float(sys.argv[2]) if len(sys.argv) > 2 else 1.8
     rl = h["record_length"]
     rec = np.frombuffer(h["points"], np.uint8).reshape(-1, rl)
     xyz = rec[:, :12].copy().view("<i4").reshape(-1, 3) * np.array(h["scale"])

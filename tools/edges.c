@@ -171,7 +171,7 @@ static const char *verdict_name(int v)
 {
     static const char *names[WPD_CREASE_VERDICTS] = {
         "on", "near (beyond the band)", "flat (one plane)", "a face with too few points",
-        "rough (not two planes)", "shallow (under 30 degrees)", "crossing (not a fold)",
+        "rough (not two or three planes)", "shallow (under 30 degrees)", "crossing (not a fold)",
         "one row (a steep face's plane not determined)"};
     return v >= 0 && v < WPD_CREASE_VERDICTS ? names[v] : "?";
 }

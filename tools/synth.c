@@ -52,9 +52,11 @@
  *    with new source ids.
  *  - The oblique survey (--oblique; synth_flight.c): the same scene flown
  *    at the same height in strips north/south and then east/west (the
- *    tracer swaps x and y for the latter), a sweep of -65..+65 deg, strips
- *    a quarter swath apart whose tracks reach a quarter swath beyond the
- *    scene: every wall faces strips that see it at a steep angle. A steep
+ *    tracer swaps x and y for the latter), pulses leaning 35..65 deg to
+ *    either side (none nearer nadir: the ground is seen from the
+ *    neighbouring strips), strips a quarter swath apart whose tracks reach
+ *    a quarter swath beyond the scene: every wall faces strips that see it
+ *    at a steep angle. A steep
  *    ray may pass over a lot between the ground and roof levels: the
  *    tracer looks for buildings every 10 m of its run.
  *  - gps_time (adjusted standard GPS time) increases pulse by pulse; the

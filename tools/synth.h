@@ -26,7 +26,7 @@
  *  - With edge_truth (`--edge-truth`), one more field, edge_truth: not 0
  *    for a point within half the point spacing (the survey's pulse spacing,
  *    0.35 to 0.38 m; with --oblique that of all its strips together,
- *    0.32 m) of a building crease of 30 degrees or more, the kind
+ *    about 0.3 m) of a building crease of 30 degrees or more, the kind
  *    of the nearest one: 1 roof
  *    ridge, 2 wall top (eaves, gable tops, flat roof edges), 3 wall
  *    corner, 4 wall foot (synth_creases.h); 0 elsewhere, and always on
@@ -40,7 +40,7 @@
  *    7 noise; return_number 1..number_of_returns (<= 5); point_source_id the
  *    flight strip (1, 2, ...); gps_time non-decreasing in file order; colour
  *    8-bit in PLY, 16-bit (8-bit * 257) in LAS. LAS only: scan_angle_rank
- *    -22..22 (-65..65 with --oblique), scan_direction_flag,
+ *    -22..22 (-65..-35 and 35..65 with --oblique), scan_direction_flag,
  *    edge_of_flight_line; user_data 0.
  */
 #ifndef WPD_SYNTH_H
@@ -66,7 +66,7 @@ typedef struct wpd_synth_options {
     int ply_ascii;        /* PLY only: ascii instead of binary little-endian */
     int overwrite;        /* replace existing output files (else refuse) */
     int edge_truth;       /* 1: add the field edge_truth (synth_creases.h) */
-    int oblique;          /* 1: the oblique survey (cross strips, +-65 degrees;
+    int oblique;          /* 1: the oblique survey (cross strips, 35-65 degrees;
                              synth_flight.c) instead of the default one */
     const char *output;   /* output path; tile paths are derived from it */
 } wpd_synth_options;

@@ -21,6 +21,8 @@ typedef struct flight {
     int per_direction;               /* strips 0 .. per_direction-1 fly north/south, the
                                         next ones (oblique survey) east/west */
     double half_angle;               /* of the mirror's sweep, radians */
+    double inner_angle;              /* oblique survey: no pulse nearer nadir than this
+                                        (radians); 0: the sweep is continuous */
     double first_centre;
     int pulses_per_line;             /* M */
     double *tan_of;                  /* [M]: tangent of the scan angle of step j */

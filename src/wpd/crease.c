@@ -275,6 +275,143 @@ static double band_spacing(const double *q, int m, const face f[2], double spaci
     return fmin(spacing, sqrt(M_PI * r2 / 2 / most));
 }
 
+/* The verdict on two planar faces of enough points (q relative to the
+ * point, which is at the origin): shallow, a steep face of one row, not
+ * a fold, or on the crease when within the band of their line. */
+static wpd_crease_verdict two_faces(const double *q, int m, const signed char *side,
+                                    const face f[2], double tol, double spacing)
+{
+    if (fabs(dot(f[0].n, f[1].n)) > WPD_CREASE_COS_MIN)
+        return WPD_CREASE_SHALLOW;
+    if (!own_planes(q, m, side, f, tol, spacing))
+        return WPD_CREASE_ROW;
+    double dir[3], at[3], origin[3] = {0, 0, 0};
+    if (meet(f, origin, dir, at) || !folded(q, m, side, f, dir, at, tol))
+        return WPD_CREASE_CROSSING;
+    return line_dist(origin, dir, at) <= 0.5 * band_spacing(q, m, f, spacing) ? WPD_CREASE_ON
+                                                                                : WPD_CREASE_NEAR;
+}
+
+/* ---- Three faces: corners ------------------------------------------------- */
+
+/* Fits three faces to the points by their sides (0, 1, 2). */
+static void fit_faces3(const double *q, int m, const signed char *side, face f[3])
+{
+    moments mo[3];
+    memset(mo, 0, sizeof mo);
+    for (int i = 0; i < m; i++)
+        add_point(&mo[side[i]], q + 3 * i);
+    for (int s = 0; s < 3; s++)
+        fit_face(&mo[s], &f[s]);
+}
+
+/* Each point to the nearest of the three planes until none moves. Returns
+ * 0, or -1 when a face runs out of points. */
+static int refine3(const double *q, int m, signed char *side, face f[3])
+{
+    for (int round = 0; round <= MAX_ROUNDS; round++) {
+        fit_faces3(q, m, side, f);
+        if (f[0].count < 3 || f[1].count < 3 || f[2].count < 3)
+            return -1;
+        int moved = 0;
+        for (int i = 0; round < MAX_ROUNDS && i < m; i++) {
+            signed char best = 0;
+            double d = plane_dist(&f[0], q + 3 * i);
+            for (signed char s = 1; s < 3; s++) {
+                double e = plane_dist(&f[s], q + 3 * i);
+                if (e < d)
+                    d = e, best = s;
+            }
+            moved += best != side[i];
+            side[i] = best;
+        }
+        if (!moved)
+            return 0;
+    }
+    return 0;
+}
+
+/* A three-face split: the two-face split (without its hopeless test: a
+ * corner's halves are not planes), then the rougher face split in two the
+ * same way, then the three planes refined. Returns 0 or -1. */
+static int split3(const double *q, int m, const double c[3], double ax[3][3], signed char *side,
+                  face f[3])
+{
+    face g[2];
+    if (split(q, m, c, ax, INFINITY, side, g))
+        return -1;
+    int r = g[1].ev[0] * g[1].count > g[0].ev[0] * g[0].count;
+    double sub[3 * MAX_POINTS];
+    int idx[MAX_POINTS], n = 0;
+    moments mo = {0, {0, 0, 0}, {0, 0, 0, 0, 0, 0}};
+    for (int i = 0; i < m; i++)
+        if (side[i] == r) {
+            memcpy(sub + 3 * n, q + 3 * i, sizeof(double[3]));
+            add_point(&mo, q + 3 * i);
+            idx[n++] = i;
+        }
+    double sc[3], a[6], ev[3], sax[3][3];
+    covariance(&mo, sc, a);
+    wpd_sym3_eigen(a, ev, sax);
+    signed char subside[MAX_POINTS];
+    face h[2];
+    if (n < 6 || split(sub, n, sc, sax, INFINITY, subside, h))
+        return -1;
+    for (int j = 0; j < n; j++)
+        side[idx[j]] = subside[j] ? 2 : (signed char)r;
+    return refine3(q, m, side, f);
+}
+
+/* Whether each of the three faces holds enough points and is planar (as
+ * planar() for two). */
+static int planar3(const double *q, int m, const signed char *side, const face f[3], double tol)
+{
+    int far[3] = {0, 0, 0};
+    for (int i = 0; i < m; i++)
+        far[side[i]] += plane_dist(&f[side[i]], q + 3 * i) > 3 * tol;
+    for (int s = 0; s < 3; s++)
+        if (f[s].count < WPD_CREASE_MIN_FACE || f[s].ev[0] > tol * tol || 10 * far[s] > f[s].count)
+            return 0;
+    return 1;
+}
+
+/* The two-face verdict on faces a and b of a three-face split, on their
+ * points alone. */
+static wpd_crease_verdict pair_of(const double *q, int m, const signed char *side, const face f[3],
+                                  int a, int b, double tol, double spacing)
+{
+    double sub[3 * MAX_POINTS];
+    signed char subside[MAX_POINTS];
+    int n = 0;
+    for (int i = 0; i < m; i++)
+        if (side[i] == a || side[i] == b) {
+            memcpy(sub + 3 * n, q + 3 * i, sizeof(double[3]));
+            subside[n++] = side[i] == b;
+        }
+    face g[2] = {f[a], f[b]};
+    return two_faces(sub, n, subside, g, tol, spacing);
+}
+
+/* The verdict where two planes do not describe the neighbourhood: three
+ * planar faces meeting at a corner (two walls and a roof or the ground),
+ * the point on the crease of any two of them; else rough. The nearest
+ * verdict to "on" of the three pairs is kept (the enum's order). */
+static wpd_crease_verdict three_faces(const double *q, int m, const double c[3], double ax[3][3],
+                                      double tol, double spacing)
+{
+    signed char side[MAX_POINTS];
+    face f[3];
+    if (split3(q, m, c, ax, side, f) || !planar3(q, m, side, f, tol))
+        return WPD_CREASE_ROUGH;
+    wpd_crease_verdict best = WPD_CREASE_VERDICTS;
+    for (int a = 0; a < 3 && best != WPD_CREASE_ON; a++)
+        for (int b = a + 1; b < 3 && best != WPD_CREASE_ON; b++) {
+            wpd_crease_verdict v = pair_of(q, m, side, f, a, b, tol, spacing);
+            best = v < best ? v : best;
+        }
+    return best;
+}
+
 wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], double spacing)
 {
     if (m > MAX_POINTS)
@@ -295,24 +432,18 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
     double total = ev[0] + ev[1] + ev[2];
     if (!(total > 0) || ev[0] < WPD_CREASE_MIN_VARIATION * total)
         return WPD_CREASE_FLAT;
-    if (ev[0] > WPD_CREASE_MAX_VARIATION * total)
+    double tol = WPD_CREASE_FLATNESS * spacing;
+    if (ev[0] > WPD_CREASE_MAX_VARIATION3 * total)
         return WPD_CREASE_ROUGH;
+    if (ev[0] > WPD_CREASE_MAX_VARIATION * total)
+        return three_faces(q, m, c, ax, tol, spacing);
     signed char side[MAX_POINTS];
     face f[2];
-    double tol = WPD_CREASE_FLATNESS * spacing;
     if (split(q, m, c, ax, HOPELESS * tol * tol, side, f))
-        return WPD_CREASE_ROUGH;
+        return three_faces(q, m, c, ax, tol, spacing);
     if (f[0].count < WPD_CREASE_MIN_FACE || f[1].count < WPD_CREASE_MIN_FACE)
         return WPD_CREASE_SMALL_FACE;
     if (!planar(q, m, side, f, tol))
-        return WPD_CREASE_ROUGH;
-    if (fabs(dot(f[0].n, f[1].n)) > WPD_CREASE_COS_MIN)
-        return WPD_CREASE_SHALLOW;
-    if (!own_planes(q, m, side, f, tol, spacing))
-        return WPD_CREASE_ROW;
-    double dir[3], at[3], origin[3] = {0, 0, 0};
-    if (meet(f, origin, dir, at) || !folded(q, m, side, f, dir, at, tol))
-        return WPD_CREASE_CROSSING;
-    return line_dist(origin, dir, at) <= 0.5 * band_spacing(q, m, f, spacing) ? WPD_CREASE_ON
-                                                                                : WPD_CREASE_NEAR;
+        return three_faces(q, m, c, ax, tol, spacing);
+    return two_faces(q, m, side, f, tol, spacing);
 }

@@ -15,9 +15,10 @@
  *   - each steep face (normal more than 45 degrees from z) is a plane its
  *     own points determine: WPD_CREASE_MIN_OWN or more of them lie off
  *     the other face's plane (beyond twice the flatness tolerance), not
- *     all on one line (a single row of wall points and the other face's
- *     row nearest the crease make a plane that is no surface: its line
- *     with the other face runs through that row);
+ *     all on one line: one lies WPD_CREASE_ROW_WIDTH spacings or more off
+ *     it (a single row of wall points and the other face's row nearest
+ *     the crease make a plane that is no surface: its line with the other
+ *     face runs through that row);
  *   - the faces lie on either side of the line where their planes meet
  *     (a fold, not two planes crossing), each within its plane: at most a
  *     tenth of a face's points lie beyond the line by more than three
@@ -28,11 +29,17 @@
  * denser face (a wall's sparse rows inflate the nearest neighbours'). A
  * neighbourhood that is one plane (surface variation below
  * WPD_CREASE_MIN_VARIATION) is no crease, whatever its border: a crease one
- * of whose faces carries no points cannot be located from the points. One
- * whose surface variation exceeds WPD_CREASE_MAX_VARIATION is a volume (a
- * crown, a cluster of returns), rejected before the split, the costly part:
- * a ball around a point of a crease has a variation of at most 0.09 when
- * the normals are 90 degrees apart, 0.14 at 120.
+ * of whose faces carries no points cannot be located from the points.
+ * Where two faces do not describe the neighbourhood (the two-face split is
+ * not planar, or the surface variation exceeds WPD_CREASE_MAX_VARIATION: a
+ * ball around a point of a two-face crease has at most 0.09 when the
+ * normals are 90 degrees apart, 0.14 at 120), three are tried: a corner,
+ * where two walls meet a roof or the ground. The rougher of the two faces
+ * is split again, the three planes refined, and when all three hold
+ * WPD_CREASE_MIN_FACE points or more and are planar, the point is on a
+ * crease when it is on that of any two of them by the rules above (on
+ * their points alone). Above WPD_CREASE_MAX_VARIATION3 the neighbourhood
+ * is a volume (a crown, a cluster of returns), rejected before any split.
  */
 #ifndef WPD_CREASE_H
 #define WPD_CREASE_H
@@ -45,14 +52,18 @@
 #define WPD_CREASE_FLATNESS 0.15
 #define WPD_CREASE_MIN_VARIATION 0.004
 #define WPD_CREASE_MAX_VARIATION 0.15
+/* Isotropic points have 1/3: a corner of three perpendicular faces comes close. */
+#define WPD_CREASE_MAX_VARIATION3 0.34
 /* A steep face (|normal z| below WPD_CREASE_STEEP_COS, cos 45 degrees)
  * needs WPD_CREASE_MIN_OWN own points (farther than WPD_CREASE_OWN_TOL
  * flatness tolerances from the other face's plane), one of them
- * WPD_CREASE_ROW_WIDTH spacings off the line through them: crease.c. */
+ * WPD_CREASE_ROW_WIDTH spacings off the line through them (the columns
+ * of two strips on a wall can lie a third of a spacing apart, and are two
+ * rows): crease.c. */
 #define WPD_CREASE_STEEP_COS 0.70710678118654752
 #define WPD_CREASE_MIN_OWN 3
 #define WPD_CREASE_OWN_TOL 2.0
-#define WPD_CREASE_ROW_WIDTH 0.5
+#define WPD_CREASE_ROW_WIDTH 0.3
 
 /* Why a neighbourhood is or is not a crease (for measurements). */
 typedef enum wpd_crease_verdict {
@@ -60,7 +71,7 @@ typedef enum wpd_crease_verdict {
     WPD_CREASE_NEAR,       /* a crease, the point farther than the band */
     WPD_CREASE_FLAT,       /* one plane */
     WPD_CREASE_SMALL_FACE, /* a face with too few points */
-    WPD_CREASE_ROUGH,      /* a face not planar: not two planes */
+    WPD_CREASE_ROUGH,      /* a face not planar: neither two nor three planes */
     WPD_CREASE_SHALLOW,    /* faces less than the minimum angle apart */
     WPD_CREASE_CROSSING,   /* faces not on either side of their line */
     WPD_CREASE_ROW,        /* a steep face whose own points are one row: its

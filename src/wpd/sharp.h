@@ -36,7 +36,7 @@
 /* The neighbour (not counting the point) whose distance gives the spacing. */
 #define WPD_SHARP_SPACING_K 12
 /* Radius of the crease test, in local spacings. */
-#define WPD_SHARP_REACH 4.0
+#define WPD_SHARP_REACH 5.0
 
 /* Labels the grid's source points begin..end-1 (end <= surface->n; a
  * tile's own points first, halo points after them): writes edge[i] = 1
