@@ -288,8 +288,8 @@ static wpd_crease_verdict two_faces(const double *q, int m, const signed char *s
     double dir[3], at[3], origin[3] = {0, 0, 0};
     if (meet(f, origin, dir, at) || !folded(q, m, side, f, dir, at, tol))
         return WPD_CREASE_CROSSING;
-    return line_dist(origin, dir, at) <= 0.5 * band_spacing(q, m, f, spacing) ? WPD_CREASE_ON
-                                                                                : WPD_CREASE_NEAR;
+    double band = WPD_CREASE_BAND * band_spacing(q, m, f, spacing);
+    return line_dist(origin, dir, at) <= band ? WPD_CREASE_ON : WPD_CREASE_NEAR;
 }
 
 /* ---- Three faces: corners ------------------------------------------------- */

@@ -91,7 +91,7 @@ def test_detector_precision_and_recall_on_synth():
     # spacings), in the default survey: ridges are found and what is
     # labelled is right; the walls carry no points or rows a metre apart,
     # so their creases are not found (docs/algorithm.md section 5: precision
-    # 0.955, recall 0.094, ridges 0.914 on this cloud).
+    # 0.903, recall 0.107, ridges 0.979 on this cloud).
     wpd("synth", "-n", 300000, "--seed", 3, "-o", "city.las", "--edge-truth")
     precision, recall, kinds, edge, _ = labelled_against_truth("city.las", 2.7, "labelled.las")
     assert precision >= 0.9, precision
@@ -104,8 +104,8 @@ def test_oblique_survey_shows_the_walls_and_their_creases():
     # synth --oblique: the same scene scanned from cross strips whose
     # pulses lean 35-65 degrees from nadir. Its walls carry points, so the
     # detector finds the creases of walls too (docs/algorithm.md section 5:
-    # precision 0.919, recall 0.819, wall tops 0.893, corners 0.641, feet
-    # 0.757, ridges 0.901 on this cloud at cap 3.13, against recall 0.144 in
+    # precision 0.862, recall 0.842, wall tops 0.919, corners 0.643, feet
+    # 0.773, ridges 0.953 on this cloud at cap 3.13, against recall 0.14 in
     # the default survey).
     wpd("synth", "-n", 300000, "--seed", 1, "-o", "oblique.las", "--edge-truth", "--oblique")
     wpd("synth", "-n", 300000, "--seed", 1, "-o", "default.las", "--edge-truth")
@@ -124,11 +124,11 @@ def test_oblique_survey_shows_the_walls_and_their_creases():
     precision, recall, kinds, _, _ = labelled_against_truth("oblique.las", 3.13, "o_edges.las")
     _, recall_default, kinds_default, _, _ = labelled_against_truth("default.las", 3.13,
                                                                     "d_edges.las")
-    assert precision >= 0.88, precision
-    assert recall >= 0.79, recall
-    assert kinds[2] >= 0.86 and kinds[3] >= 0.6 and kinds[4] >= 0.72, kinds
+    assert precision >= 0.84, precision
+    assert recall >= 0.82, recall
+    assert kinds[2] >= 0.9 and kinds[3] >= 0.6 and kinds[4] >= 0.75, kinds
     assert recall >= 5 * recall_default, (recall, recall_default)
-    assert kinds[1] >= 0.87, kinds
+    assert kinds[1] >= 0.93, kinds
 
 
 def test_oblique_edge_label_memory_equals_tiles():
