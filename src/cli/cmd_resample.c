@@ -419,22 +419,27 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
                "disk\n", r->tiles, r->colours, (unsigned long long)r->largest_tile,
                r->spill.raw_bytes / 1e6, r->spill.disk_bytes / 1e6);
     printf("  time: bounds %.3f s, scan %.3f, %s %.3f, poisson %.3f, exact %.3f, smooth %.3f, "
-           "records %.3f, write %.3f, total %.3f (threads %d)\n", t->bounds, t->scan,
-           r->in_memory ? "load" : "tile", t->tile, t->poisson, t->exact, t->smooth, t->records,
+           "merge %.3f, records and write %.3f, total %.3f (threads %d)\n", t->bounds, t->scan,
+           r->in_memory ? "load" : "tile", t->tile, t->poisson, t->exact, t->smooth, t->merge,
            info->t_write, info->t_total,
            o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
 }
 
 /* Writes the outputs, each finished under its temporary name in files[]
- * (one per input with --per-input). */
+ * (one per input with --per-input), reading the records once more: under
+ * the classes' filter for a run by class (its global indices count the
+ * points not dropped). */
 static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
-                         const resample_options *o, wpd_outfile *files, wpd_error *err)
+                         const wpd_class_result *classes, resample_options *o,
+                         wpd_outfile *files, wpd_error *err)
 {
-    if (o->per_input)
-        return wpd_selection_write_per_input(sel, cloud, file_count, o->per_input, &o->write,
-                                             files, err);
-    return wpd_selection_write(sel, 0, sel->n, wpd_cloud_header(cloud, 0), o->output,
-                               &o->write, files, err);
+    wpd_selection_target target = {o->output, o->per_input, &o->write, o->mem_bytes,
+                                   o->params.threads, &o->progress};
+    if (classes->ngroups)
+        wpd_cloud_set_filter(cloud, &classes->output_filter);
+    int rc = wpd_selection_write(sel, cloud, file_count, &target, files, err);
+    wpd_cloud_set_filter(cloud, NULL);
+    return rc;
 }
 
 /* The outputs (files[0..nout-1]) and the report (files[nout]) of a run,
@@ -597,8 +602,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
              ? run_by_class(cloud, o, &ro, &res, &classes, &info, err)
              : wpd_resample_run(cloud, &ro, &res, err);
     /* The selection borrows the result's arrays. */
-    sel = (wpd_selection){res.count, res.gid, res.xyz, res.records, res.record_size, res.moved,
-                          res.radius / 1000, o->edge_label ? res.edge : NULL};
+    sel = (wpd_selection){res.count, res.gid, res.xyz, res.moved, res.radius / 1000,
+                          o->edge_label ? res.edge : NULL};
     if (rc == 0 && o->edge_label && !res.edge && res.count)
         rc = wpd_fail(err, WPD_E_USAGE, "internal error: no sharp-feature labels to write");
     info.dropped = wpd_cloud_dropped(cloud);
@@ -606,10 +611,10 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
                 "dropped\n", (unsigned long long)wpd_cloud_dropped(cloud));
     double tw = omp_get_wtime();
-    wpd_progress_phase(&o->progress, "write", sel.n, "points");
+    /* The records pass reads every input point: progress in those. */
+    wpd_progress_phase(&o->progress, "write", res.input_points, "points");
     if (rc == 0)
-        rc = write_outputs(&sel, cloud, res.file_count, o, pending.files, err);
-    wpd_progress_add(&o->progress, rc == 0 ? sel.n : 0);
+        rc = write_outputs(&sel, cloud, res.file_count, &classes, o, pending.files, err);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;

@@ -53,7 +53,7 @@ static void write_phases(FILE *f, const wpd_run_info *r)
                            "write", "total"};
     const wpd_resample_timings *t = &r->run->time;
     const double v[] = {t->bounds, t->scan, t->tile, t->plan, t->poisson,
-                        t->exact, t->smooth + t->records, r->t_write, r->t_total};
+                        t->exact, t->smooth + t->merge, r->t_write, r->t_total};
     for (int i = 0; i < 9; i++) {
         fprintf(f, "%s\"%s\": ", i ? ", " : "", names[i]);
         wpd_json_number(f, v[i]);

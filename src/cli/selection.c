@@ -8,6 +8,7 @@
 
 #include "common/testhook.h"
 #include "io/layout.h"
+#include "resample/resample.h"
 
 /* 1 when a PLY output's x, y or z is float32 and float32 spacing at the
  * output's magnitude is coarser than precision: moved positions would be
@@ -58,54 +59,136 @@ static int plan_output(const wpd_selection *sel, size_t first, size_t count,
     return 0;
 }
 
-/* Writes the points first..first+count of sel to path; the finished file
- * stays under its temporary name, described by *pending. */
-static int write_points(const wpd_selection *sel, size_t first, size_t count,
-                        const wpd_header *in, const char *path, const wpd_write_options *opt,
-                        wpd_outfile *pending, wpd_error *err)
-{
+/* The outputs being written, and the records pass's sink state. */
+typedef struct writing {
+    const wpd_selection *sel;
+    const wpd_cloud *cloud;
+    const wpd_selection_target *target;
+    wpd_outfile *pending;
+    int nout;
+    size_t *first;            /* [nout + 1]: output k gets samples first[k]..first[k+1]-1 */
+    int done;                 /* outputs 0..done-1 finished */
+    int open;                 /* output `done` is open */
+    wpd_writer *w;
     wpd_header out;
     wpd_layout_map map;
-    int label = -1;
-    if (plan_output(sel, first, count, in, path, &out, &map, &label, err))
+    int label;
+    wpd_batch dst;
+} writing;
+
+static const wpd_header *input_of(const writing *ws, int k)
+{
+    return wpd_cloud_header(ws->cloud, ws->target->path ? 0 : k);
+}
+
+/* Opens output ws->done. */
+static int open_output(writing *ws, wpd_error *err)
+{
+    int k = ws->done;
+    char buf[2048];
+    const char *path = ws->target->path;
+    if (!path)
+        path = wpd_per_input_path(ws->target->outdir, input_of(ws, k)->path, buf, sizeof buf);
+    if (plan_output(ws->sel, ws->first[k], ws->first[k + 1] - ws->first[k], input_of(ws, k),
+                    path, &ws->out, &ws->map, &ws->label, err))
         return -1;
-    wpd_batch src, dst;
-    int rc = -1;
-    wpd_writer *w = NULL;
-    memset(&src, 0, sizeof src);
-    memset(&dst, 0, sizeof dst); /* freed below even when src fails */
-    if (wpd_batch_init(&src, 65536, sel->record_size) ||
-        wpd_batch_init(&dst, 65536, out.schema.record_size)) {
-        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for the write buffers", path);
-        goto done;
+    if (!(ws->w = wpd_writer_open(path, &ws->out, ws->target->opt, err))) {
+        wpd_header_free(&ws->out);
+        return -1;
     }
-    if (!(w = wpd_writer_open(path, &out, opt, err)))
-        goto done;
-    for (size_t start = first; start < first + count; start += src.cap) {
-        src.n = first + count - start < src.cap ? first + count - start : src.cap;
-        memcpy(src.records, sel->records + start * sel->record_size, src.n * sel->record_size);
-        memcpy(src.xyz, sel->xyz + 3 * start, 3 * src.n * sizeof *src.xyz);
-        wpd_layout_apply(&map, &in->schema, &out.schema, &src, &dst);
-        if (label >= 0)
-            wpd_layout_set_labels(&out.schema.dims[label], &dst, sel->edge + start);
-        if (wpd_writer_write(w, &dst, err))
-            goto done;
-    }
-    rc = wpd_writer_close_pending(w, pending, err);
-    w = NULL;
-done:
-    wpd_writer_abort(w);
-    wpd_batch_free(&src);
-    wpd_batch_free(&dst);
-    wpd_header_free(&out);
+    ws->open = 1;
+    return 0;
+}
+
+/* Finishes the open output under its temporary name (pending[done]). */
+static int close_output(writing *ws, wpd_error *err)
+{
+    int rc = wpd_writer_close_pending(ws->w, &ws->pending[ws->done], err);
+    ws->w = NULL;
+    wpd_header_free(&ws->out);
+    ws->open = 0;
+    ws->done++;
     return rc;
 }
 
-int wpd_selection_write(const wpd_selection *sel, size_t first, size_t count,
-                        const wpd_header *in, const char *path, const wpd_write_options *opt,
-                        wpd_outfile *pending, wpd_error *err)
+/* Finishes every output before k (empty ones included) and opens k. */
+static int advance_to(writing *ws, int k, wpd_error *err)
 {
-    return write_points(sel, first, count, in, path, opt, pending, err);
+    while (ws->done < k)
+        if ((!ws->open && open_output(ws, err)) || close_output(ws, err))
+            return -1;
+    return ws->open || k >= ws->nout ? 0 : open_output(ws, err);
+}
+
+/* The sink of the records pass: n samples of input file `file` in the
+ * input layout, to the open output's layout, written. */
+static int write_samples(void *arg, int file, const uint64_t *gid, const double *xyz,
+                         const uint8_t *edge, const uint8_t *records, size_t n, wpd_error *err)
+{
+    (void)gid;
+    writing *ws = arg;
+    int k = ws->target->path ? 0 : file;
+    if (advance_to(ws, k, err))
+        return -1;
+    const wpd_header *in = input_of(ws, k);
+    if (ws->dst.cap < n || ws->dst.record_size != ws->out.schema.record_size) {
+        wpd_batch_free(&ws->dst);
+        if (wpd_batch_init(&ws->dst, n, ws->out.schema.record_size) || ws->dst.cap < n)
+            return wpd_fail(err, WPD_E_MEMORY, "out of memory for the write buffers");
+    }
+    wpd_batch src = {n, n, in->schema.record_size, (uint8_t *)records, (double *)xyz};
+    wpd_layout_apply(&ws->map, &in->schema, &ws->out.schema, &src, &ws->dst);
+    if (ws->label >= 0)
+        wpd_layout_set_labels(&ws->out.schema.dims[ws->label], &ws->dst, edge);
+    return wpd_writer_write(ws->w, &ws->dst, err);
+}
+
+/* The samples' range of each output: by global index, file by file. */
+static int split_outputs(writing *ws, const uint64_t *file_count, wpd_error *err)
+{
+    ws->nout = ws->target->path ? 1 : wpd_cloud_nfiles(ws->cloud);
+    ws->first = calloc((size_t)ws->nout + 1, sizeof *ws->first);
+    if (!ws->first)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %d outputs", ws->nout);
+    uint64_t file_end = 0;
+    size_t at = 0;
+    for (int k = 0; k < ws->nout; k++) {
+        file_end += ws->target->path ? UINT64_MAX / 2 : file_count[k];
+        while (at < ws->sel->n && ws->sel->gid[at] < file_end)
+            at++;
+        ws->first[k + 1] = at;
+    }
+    if (at != ws->sel->n)
+        return wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                        wpd_cloud_header(ws->cloud, 0)->path);
+    return 0;
+}
+
+int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
+                        const wpd_selection_target *target, wpd_outfile *pending,
+                        wpd_error *err)
+{
+    writing ws = {.sel = sel, .cloud = cloud, .target = target, .pending = pending};
+    int rc = split_outputs(&ws, file_count, err);
+    if (rc == 0)
+        wpd_outfile_clear_all(pending, ws.nout);
+    wpd_sample_set set = {sel->n, sel->gid, sel->xyz, sel->edge};
+    if (rc == 0)
+        rc = wpd_resample_stream_records(cloud, &set, target->mem_bytes, target->threads,
+                                         target->progress, write_samples, &ws, err);
+    if (rc == 0)
+        rc = advance_to(&ws, ws.nout, err); /* the outputs after the last point */
+    if (ws.open) {
+        wpd_writer_abort(ws.w);
+        wpd_header_free(&ws.out);
+    }
+    wpd_batch_free(&ws.dst);
+    free(ws.first);
+    if (rc)
+        wpd_outfile_abort_all(pending, ws.nout ? ws.nout : 1);
+    else if (!target->path)
+        wpd_test_stall("per-input");
+    return rc;
 }
 
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size)
@@ -116,42 +199,9 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
     return buf;
 }
 
-int wpd_selection_write_per_input(const wpd_selection *sel, const wpd_cloud *cloud,
-                                  const uint64_t *file_count, const char *outdir,
-                                  const wpd_write_options *opt, wpd_outfile *pending,
-                                  wpd_error *err)
-{
-    /* All outputs or none: a run that stopped halfway must not leave half
-     * the folder done: with --skip-existing the next run would resample
-     * the other half on its own, with a seam and a different count. */
-    int nfiles = wpd_cloud_nfiles(cloud);
-    wpd_outfile_clear_all(pending, nfiles);
-    int rc = 0;
-    uint64_t file_start = 0;
-    size_t first = 0;
-    for (int f = 0; f < nfiles && rc == 0; f++) {
-        const wpd_header *in = wpd_cloud_header(cloud, f);
-        uint64_t file_end = file_start + file_count[f];
-        size_t count = 0;
-        while (first + count < sel->n && sel->gid[first + count] < file_end)
-            count++;
-        char path[2048];
-        wpd_per_input_path(outdir, in->path, path, sizeof path);
-        rc = write_points(sel, first, count, in, path, opt, &pending[f], err);
-        first += count;
-        file_start = file_end;
-    }
-    if (rc)
-        wpd_outfile_abort_all(pending, nfiles);
-    else
-        wpd_test_stall("per-input");
-    return rc;
-}
-
 void wpd_selection_free(wpd_selection *sel)
 {
     free(sel->gid);
     free(sel->xyz);
-    free(sel->records);
     memset(sel, 0, sizeof *sel);
 }

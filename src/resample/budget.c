@@ -10,23 +10,24 @@ size_t wpd_budget_tile_point_bytes(void)
     return 128;
 }
 
-size_t wpd_budget_sample_bytes(uint32_t record_size)
+size_t wpd_budget_sample_bytes(void)
 {
     /* store 36, exact-count scratch ~110 (flat copy 37, index 4, live flag,
      * cost and list 13, grid over the live samples ~40, a sweep's lists
-     * ~17), result (index, xyz, record) */
-    return 180 + record_size;
+     * ~17), result (index, xyz, label) 33. No record: the records pass
+     * hands each to the writer as it reads it (records.c). */
+    return 180;
 }
 
-size_t wpd_budget_samples_bytes(uint64_t target, uint32_t record_size)
+size_t wpd_budget_samples_bytes(uint64_t target)
 {
-    return (size_t)(1.3 * (double)target) * wpd_budget_sample_bytes(record_size);
+    return (size_t)(1.3 * (double)target) * wpd_budget_sample_bytes();
 }
 
-size_t wpd_budget_min(uint64_t target, uint32_t record_size)
+size_t wpd_budget_min(uint64_t target)
 {
     return WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS / 4 +
-           wpd_budget_samples_bytes(target, record_size) +
+           wpd_budget_samples_bytes(target) +
            (size_t)WPD_TILES_IN_FLIGHT * WPD_BUDGET_MIN_TILE_POINTS *
                wpd_budget_tile_point_bytes();
 }
@@ -36,10 +37,10 @@ size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size)
     return (size_t)n * (record_size + 140) + ((size_t)32 << 20);
 }
 
-uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint32_t record_size)
+uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target)
 {
     size_t fixed = WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS +
-                   wpd_budget_samples_bytes(target, record_size);
+                   wpd_budget_samples_bytes(target);
     size_t left = mem > fixed ? mem - fixed : 0;
     uint64_t m = left / ((size_t)WPD_TILES_IN_FLIGHT * wpd_budget_tile_point_bytes());
     return m < WPD_BUDGET_MIN_TILE_POINTS ? WPD_BUDGET_MIN_TILE_POINTS : m;

@@ -5,9 +5,10 @@
  *   fixed      48 MB: one thread's voxel ladder and batches, the plan, the
  *              runtime;
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
- *   samples    1.3 n x (180 + record size) bytes: the samples of a first
- *              pass that may overshoot n, the flat copy and the grid the
- *              exact count works on, their records;
+ *   samples    1.3 n x 180 bytes: the samples of a first pass that may
+ *              overshoot n, the flat copy and the grid the exact count
+ *              works on (not their records: the records pass hands each
+ *              to the writer as it reads it);
  *   tiles      the rest, for WPD_TILES_IN_FLIGHT tiles at
  *              wpd_budget_tile_point_bytes() a point.
  * A thread beyond the first in a streaming pass runs only where the budget
@@ -35,17 +36,17 @@ enum {
  * grid. Records never enter tiles. */
 size_t wpd_budget_tile_point_bytes(void);
 
-/* Bytes per output sample (store, exact-count scratch, result with its
- * record). */
-size_t wpd_budget_sample_bytes(uint32_t record_size);
+/* Bytes per output sample (store, exact-count scratch, result: index,
+ * coordinates, label; its record is never held: records.c). */
+size_t wpd_budget_sample_bytes(void);
 
 /* Bytes for the samples of a run to target points (1.3 target: the first
  * pass may overshoot). */
-size_t wpd_budget_samples_bytes(uint64_t target, uint32_t record_size);
+size_t wpd_budget_samples_bytes(uint64_t target);
 
 /* Smallest budget a run to target samples accepts: below it the run is
  * refused before the first read. */
-size_t wpd_budget_min(uint64_t target, uint32_t record_size);
+size_t wpd_budget_min(uint64_t target);
 
 /* Budget needed to hold a cloud of n points as one tile in memory (all
  * threads on it): measured 380 MB peak for the 2.27 M-point NC Raleigh scan
@@ -55,7 +56,7 @@ size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size);
 /* Home points a tile may hold so that WPD_TILES_IN_FLIGHT of them fit
  * beside the fixed part, the spill buffers and the samples (at least
  * WPD_BUDGET_MIN_TILE_POINTS). */
-uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint32_t record_size);
+uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target);
 
 /* Bytes of one batch of WPD_BATCH_POINTS points with their records. */
 size_t wpd_budget_batch_bytes(uint32_t record_size);

@@ -148,14 +148,14 @@ static int in_group(const wpd_class_options *o, const wpd_class_group *g, long c
 /* Bytes a finished run holds until the merge. */
 static size_t held_bytes(const wpd_resample_result *r)
 {
-    return r->count * (sizeof *r->gid + 3 * sizeof *r->xyz + r->record_size + 1);
+    return r->count * (sizeof *r->gid + 3 * sizeof *r->xyz + 1);
 }
 
 static void add_times(wpd_resample_timings *sum, const wpd_resample_timings *t)
 {
     sum->bounds += t->bounds, sum->scan += t->scan, sum->plan += t->plan;
     sum->tile += t->tile, sum->poisson += t->poisson, sum->exact += t->exact;
-    sum->smooth += t->smooth, sum->records += t->records, sum->total += t->total;
+    sum->smooth += t->smooth, sum->merge += t->merge, sum->total += t->total;
 }
 
 /* Refuses, before the runs, an output that does not fit the budget twice
@@ -163,8 +163,7 @@ static void add_times(wpd_resample_timings *sum, const wpd_resample_timings *t)
  * kept points, into the output (both in memory until the output side is
  * out of core, issue 12). */
 static int check_output_fits(const wpd_class_result *out, const uint64_t *count,
-                             const wpd_class_options *o, size_t record_size, size_t mem,
-                             wpd_error *err)
+                             const wpd_class_options *o, size_t mem, wpd_error *err)
 {
     uint64_t n = 0;
     for (long c = 0; c < NCLASSES; c++)
@@ -173,7 +172,7 @@ static int check_output_fits(const wpd_class_result *out, const uint64_t *count,
         const wpd_class_group *g = &out->groups[i];
         n += g->whole ? g->points : g->target;
     }
-    double need = 2.0 * (double)n * (double)(sizeof(uint64_t) + 3 * sizeof(double) + record_size + 1);
+    double need = 2.0 * (double)n * (double)(sizeof(uint64_t) + 3 * sizeof(double) + 1);
     if (need > (double)mem)
         return wpd_fail(err, WPD_E_MEMORY, "memory budget too small: the %llu output points "
                         "(kept classes included) need at least %.0f MiB (--mem)",
@@ -214,38 +213,35 @@ typedef struct merger {
     uint64_t *out_count;      /* [NCLASSES] points written per class */
 } merger;
 
-/* Appends one point (record rec, coordinates xyz, sharp label edge) to the
- * merged result as global index gid. */
-static void append(wpd_resample_result *m, uint64_t gid, const uint8_t *rec, const double *xyz,
-                   uint8_t edge)
+/* Appends one point (coordinates xyz, sharp label edge) to the merged
+ * result as global index gid; its record comes from the records pass. */
+static void append(wpd_resample_result *m, uint64_t gid, const double *xyz, uint8_t edge)
 {
     size_t k = m->count++;
     m->gid[k] = gid;
-    memcpy(m->records + k * m->record_size, rec, m->record_size);
     memcpy(m->xyz + 3 * k, xyz, 3 * sizeof *xyz);
     if (m->edge)
         m->edge[k] = edge;
 }
 
 /* Whether the point of group gi just read is written, and from where. */
-static void merge_point(merger *mg, int gi, uint64_t gid, const uint8_t *rec, const double *xyz)
+static void merge_point(merger *mg, int gi, uint64_t gid, const double *xyz)
 {
     wpd_resample_result *m = &mg->out->merged;
     if (gi == -2) {
-        append(m, gid, rec, xyz, 0);
+        append(m, gid, xyz, 0);
         return;
     }
     wpd_class_group *g = &mg->out->groups[gi];
     uint64_t local = mg->seen[gi]++;
     if (g->whole) {
-        append(m, gid, rec, xyz, 0);
+        append(m, gid, xyz, 0);
         return;
     }
     const wpd_resample_result *r = &g->run;
     size_t s = mg->next[gi];
     if (s < r->count && r->gid[s] == local) {
-        append(m, gid, r->records + s * r->record_size, r->xyz + 3 * s,
-               r->edge ? r->edge[s] : 0);
+        append(m, gid, r->xyz + 3 * s, r->edge ? r->edge[s] : 0);
         mg->next[gi] = s + 1;
     }
 }
@@ -260,7 +256,7 @@ static int merge_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
         if (cls < 0)
             return -1;
         size_t before = mg->out->merged.count;
-        merge_point(mg, mg->group_of[cls], pb->first_gid + i, rec, b->xyz + 3 * i);
+        merge_point(mg, mg->group_of[cls], pb->first_gid + i, b->xyz + 3 * i);
         mg->out_count[cls] += mg->out->merged.count - before;
     }
     return 0;
@@ -279,10 +275,9 @@ static int merged_alloc(wpd_class_result *out, const wpd_cloud *cloud, uint64_t 
     size_t alloc = n ? n : 1;
     m->gid = malloc(alloc * sizeof *m->gid);
     m->xyz = malloc(3 * alloc * sizeof *m->xyz);
-    m->records = malloc(alloc * m->record_size);
     m->edge = with_edge ? calloc(alloc, 1) : NULL;
     m->file_count = calloc((size_t)m->nfiles, sizeof *m->file_count);
-    if (!m->gid || !m->xyz || !m->records || (with_edge && !m->edge) || !m->file_count)
+    if (!m->gid || !m->xyz || (with_edge && !m->edge) || !m->file_count)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the %zu output points", n);
     return 0;
 }
@@ -322,7 +317,7 @@ static int merge_pass(wpd_cloud *cloud, const wpd_class_options *o,
                       wpd_class_result *out, wpd_error *err)
 {
     uint64_t kept = 0;
-    uint8_t *accept = malloc(NCLASSES);
+    uint8_t *accept = out->output_accept = malloc(NCLASSES);
     merger mg = {o, cloud, out, malloc(NCLASSES), calloc((size_t)out->ngroups, sizeof(uint64_t)),
                  calloc((size_t)out->ngroups, sizeof(size_t)),
                  calloc(NCLASSES, sizeof(uint64_t))};
@@ -340,8 +335,8 @@ static int merge_pass(wpd_cloud *cloud, const wpd_class_options *o,
         with_edge |= out->groups[i].run.edge != NULL;
     if (merged_alloc(out, cloud, kept, with_edge, err))
         goto done;
-    wpd_point_filter filter = {o->field, accept};
-    wpd_cloud_set_filter(cloud, &filter);
+    out->output_filter = (wpd_point_filter){o->field, accept};
+    wpd_cloud_set_filter(cloud, &out->output_filter);
     int want = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
     wpd_pass pass = {.cloud = cloud, .commit = merge_commit, .arg = &mg,
                      .threads = wpd_budget_pass_threads(opt->mem_bytes, want, 0,
@@ -356,7 +351,6 @@ static int merge_pass(wpd_cloud *cloud, const wpd_class_options *o,
     if (rc == 0)
         rc = class_lines(o, count, mg.out_count, out, err);
 done:
-    free(accept);
     free(mg.group_of);
     free(mg.seen);
     free(mg.next);
@@ -367,9 +361,9 @@ done:
 /* Frees r's arrays, keeps its facts. */
 static void drop_arrays(wpd_resample_result *r)
 {
-    free(r->gid), free(r->xyz), free(r->records), free(r->edge);
+    free(r->gid), free(r->xyz), free(r->edge);
     free(r->file_count), free(r->tile_box);
-    r->gid = NULL, r->xyz = NULL, r->records = NULL, r->edge = NULL;
+    r->gid = NULL, r->xyz = NULL, r->edge = NULL;
     r->file_count = NULL, r->tile_box = NULL;
 }
 
@@ -417,8 +411,7 @@ int wpd_resample_by_class(wpd_cloud *cloud, const wpd_class_options *o,
         goto done;
     }
     if (class_histogram(cloud, o, opt, count, err) || plan_groups(o, count, quiet, out, err) ||
-        check_output_fits(out, count, o, wpd_cloud_header(cloud, 0)->schema.record_size,
-                          opt->mem_bytes, err))
+        check_output_fits(out, count, o, opt->mem_bytes, err))
         goto done;
     if (!quiet)
         notice_absent(o, count);
@@ -457,5 +450,6 @@ void wpd_class_result_free(wpd_class_result *r)
         wpd_resample_result_free(&r->groups[i].run);
     free(r->groups);
     free(r->lines);
+    free(r->output_accept);
     memset(r, 0, sizeof *r);
 }

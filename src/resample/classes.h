@@ -10,8 +10,9 @@
  * cloud filtered to that group: its samples are exactly those of a run over
  * a file holding only its points, whatever the other classes (groups do not
  * constrain each other). A group whose count is at or above its points is
- * kept whole. A last streaming pass puts every group's samples and the kept
- * points back in input order.
+ * kept whole. A merge pass puts every group's samples and the kept points
+ * back in input order; their records come from the records pass
+ * (wpd_resample_stream_records) over the cloud with output_filter set.
  */
 #ifndef WPD_CLASSES_H
 #define WPD_CLASSES_H
@@ -67,8 +68,9 @@ typedef struct wpd_class_line {
 typedef struct wpd_class_result {
     wpd_resample_result merged;    /* every group's samples and the kept points, in
                                       input order (gid: index among the points not
-                                      dropped); count, gid, xyz, records, edge,
-                                      record_size, moved, input_points, nfiles,
+                                      dropped: the cloud under output_filter); count,
+                                      gid, xyz, edge, record_size, moved,
+                                      input_points, nfiles,
                                       file_count; the other fields from the first group
                                       run, times summed over the runs */
     wpd_class_group *groups;       /* [ngroups]: the rest first, then the counts */
@@ -76,6 +78,9 @@ typedef struct wpd_class_result {
     wpd_class_line *lines;         /* [nlines], by class */
     int nlines;
     uint64_t dropped;              /* points of dropped classes */
+    wpd_point_filter output_filter; /* the classes not dropped: set it on the cloud for
+                                      the records pass (valid until the result is freed) */
+    uint8_t *output_accept;        /* its table (owned) */
     double histogram_seconds, merge_seconds;
 } wpd_class_result;
 

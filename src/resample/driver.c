@@ -82,7 +82,7 @@ static int copy_tile_boxes(wpd_run *run)
 
 static int check_budget(const wpd_run *run, wpd_error *err)
 {
-    size_t need = wpd_budget_min(run->opt->target, run->record_size);
+    size_t need = wpd_budget_min(run->opt->target);
     if (run->res->in_memory || run->opt->mem_bytes >= need)
         return 0;
     return wpd_fail(err, WPD_E_MEMORY,
@@ -144,8 +144,7 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     run->surface_dk = 2.5 * res->radius_estimate *
                       sqrt((double)run->opt->target / (double)run->scan.count);
     uint64_t max_points = res->in_memory ? run->scan.count
-                                         : wpd_budget_max_tile_points(mem, run->opt->target,
-                                                                      run->record_size);
+                                         : wpd_budget_max_tile_points(mem, run->opt->target);
     if (wpd_plan_tiles(&run->scan, max_points, res->in_memory ? 1 : run->opt->min_tiles,
                        run->halo, &run->plan, err))
         return -1;
@@ -179,11 +178,9 @@ static int tile_phase(wpd_run *run, wpd_error *err)
 static int finish(wpd_run *run, wpd_error *err)
 {
     double t = omp_get_wtime();
-    wpd_progress_phase(run->opt->progress, "records", run->scan.count, "points");
-    if (wpd_merge_phase(run, err) || wpd_records_phase(run, err))
+    if (wpd_merge_phase(run, err))
         return -1;
-    wpd_progress_end(run->opt->progress);
-    run->res->time.records = omp_get_wtime() - t;
+    run->res->time.merge = omp_get_wtime() - t;
     return 0;
 }
 
@@ -295,7 +292,6 @@ void wpd_resample_result_free(wpd_resample_result *res)
 {
     free(res->gid);
     free(res->xyz);
-    free(res->records);
     free(res->edge);
     free(res->file_count);
     free(res->tile_box);

@@ -18,8 +18,9 @@
  *            each sweep reading every tile's input points;
  *   smooth   colour by colour: each tile's samples, its neighbours' samples
  *            as context, its input plus halo as the surface;
- *   records  the samples' records from a last streaming pass;
- *   merge    samples in global-index order, absolute coordinates.
+ *   merge    samples in global-index order, absolute coordinates;
+ *   records  (wpd_resample_stream_records, after the run) the samples'
+ *            records from a last streaming pass, handed to the writer.
  * Every step is the same code whether the cloud is one tile in memory or
  * many in the spill; the output does not depend on the number of threads.
  */
@@ -46,7 +47,7 @@ typedef struct wpd_resample_options {
 
 /* Wall time of each phase, seconds. */
 typedef struct wpd_resample_timings {
-    double bounds, scan, plan, tile, poisson, exact, smooth, records, total;
+    double bounds, scan, plan, tile, poisson, exact, smooth, merge, total;
 } wpd_resample_timings;
 
 /* What a run produced and what it did. */
@@ -54,7 +55,6 @@ typedef struct wpd_resample_result {
     size_t count;             /* samples (n, or every point when n >= input) */
     uint64_t *gid;            /* [count] ascending global indices */
     double *xyz;              /* [3 count] absolute coordinates */
-    uint8_t *records;         /* [count * record_size] the samples' input records */
     uint8_t *edge;            /* [count] sharp-feature label, or NULL without --sharp */
     uint32_t record_size;
     int moved;                /* 1: coordinates were smoothed */
@@ -95,5 +95,33 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
                      wpd_resample_result *res, wpd_error *err);
 
 void wpd_resample_result_free(wpd_resample_result *res);
+
+/* Samples to write: ascending global indices, absolute coordinates, sharp
+ * labels (or NULL). */
+typedef struct wpd_sample_set {
+    size_t count;
+    const uint64_t *gid;
+    const double *xyz;
+    const uint8_t *edge;
+} wpd_sample_set;
+
+/* Takes n samples (gid, xyz, edge: the set's arrays from some offset;
+ * edge NULL when the set has none) with their input records (records: n
+ * records of the cloud's record size), all from input file `file`.
+ * Returns 0, or -1 with err set. */
+typedef int (*wpd_sample_sink)(void *arg, int file, const uint64_t *gid, const double *xyz,
+                               const uint8_t *edge, const uint8_t *records, size_t n,
+                               wpd_error *err);
+
+/* The records pass: reads cloud once in order (with the filter it has, the
+ * one the run had) and hands set's samples to sink, batch by batch, in
+ * global-index order, each with its input record; no record is held beyond
+ * one batch. Reading runs on up to `threads` threads where the budget
+ * mem_bytes allows. Returns 0, or -1 with err set: the sink's failure, a
+ * read error, WPD_E_INPUT when the inputs no longer hold the samples (they
+ * changed while being resampled). */
+int wpd_resample_stream_records(wpd_cloud *cloud, const wpd_sample_set *set, size_t mem_bytes,
+                                int threads, wpd_progress *progress, wpd_sample_sink sink,
+                                void *arg, wpd_error *err);
 
 #endif

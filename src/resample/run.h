@@ -88,6 +88,5 @@ int wpd_take_all_phase(wpd_run *run, wpd_error *err);            /* poisson_pass
 int wpd_exact_phase(wpd_run *run, wpd_error *err);               /* flat.c */
 int wpd_smooth_phase(wpd_run *run, wpd_error *err);              /* smooth_pass.c */
 int wpd_merge_phase(wpd_run *run, wpd_error *err);               /* merge.c */
-int wpd_records_phase(wpd_run *run, wpd_error *err);             /* records.c */
 
 #endif
