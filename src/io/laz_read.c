@@ -101,6 +101,9 @@ static const char *decode_table(wpd_reader *r, laz_reader *z, uint64_t off, uint
         why = "it is truncated";
     if (!why && z->first[n] != r->hdr.point_count)
         why = "its point counts do not add up to the header's";
+    /* Encoders write the table right after the last chunk. */
+    if (!why && z->start[n] != table)
+        why = "its chunk sizes do not add up to the point data";
     return why;
 }
 
