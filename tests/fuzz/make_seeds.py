@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Builds the fuzz seed corpora (build/fuzz/seeds/{ply,las}) from the shared
+"""Builds the fuzz seed corpora (build/fuzz/seeds/{ply,las,laz}) from the shared
 test data, small enough that every execution is fast.
 
   make_seeds.py DATA_DIR OUT_DIR [MAX_LEN]
@@ -16,6 +16,9 @@ offsets patched so the seed is still valid. Malformed or compressed files
 are kept as their first MAX_LEN bytes. PDRFs the data lacks are covered by
 synthetic files: one per PDRF 0-10, with an Extra Bytes VLR (scaled,
 array and undocumented extra bytes) and, for LAS 1.3/1.4, an EVLR.
+
+LAZ: every file under DATA_DIR/laz, whole when it fits MAX_LEN, else its
+first MAX_LEN bytes.
 
 The seeds are build products: never commit them (the data's licences are
 the data's). Nothing here is random: the same data gives the same seeds.
@@ -384,14 +387,20 @@ def main():
     data_dir, out_dir = sys.argv[1], sys.argv[2]
     max_len = int(sys.argv[3]) if len(sys.argv) > 3 else 65536
     counts = {}
-    for kind in ("ply", "las"):
+    for kind in ("ply", "las", "laz"):
         d = os.path.join(out_dir, kind)
         os.makedirs(d, exist_ok=True)
         for old in os.listdir(d):
             os.remove(os.path.join(d, old))
         seen = set()
         n = 0
-        if kind == "ply":
+        if kind == "laz":
+            # whole files where they fit (every chunk and the chunk table
+            # then valid), else their first MAX_LEN bytes (a truncated file)
+            for _, path in files(data_dir, ("laz",), ".laz"):
+                with open(path, "rb") as f:
+                    n += save(d, [f.read()[:max_len]], seen)
+        elif kind == "ply":
             for _, path in files(data_dir, ("ply", "scans", "bad"), ".ply"):
                 with open(path, "rb") as f:
                     n += save(d, ply_seeds(f.read(), max_len), seen)
@@ -409,8 +418,8 @@ def main():
                 minors = [2, 4] if pdrf < 4 else [3, 4] if pdrf < 6 else [4]
                 n += save(d, [las_synthetic(pdrf, m) for m in minors], seen)
         counts[kind] = n
-    print("seeds: %d ply, %d las (max %d bytes) in %s" % (counts["ply"], counts["las"], max_len,
-                                                         out_dir))
+    print("seeds: %d ply, %d las, %d laz (max %d bytes) in %s"
+          % (counts["ply"], counts["las"], counts["laz"], max_len, out_dir))
 
 
 if __name__ == "__main__":

@@ -47,7 +47,7 @@ static int read_file(const char *path, cf_cloud *c, size_t batch_cap, wpd_error 
 static int same_records(const cf_cloud *a, const cf_cloud *b)
 {
     return a->n == b->n && a->record_size == b->record_size &&
-           !memcmp(a->records, b->records, a->n * a->record_size);
+           (!a->n || !memcmp(a->records, b->records, a->n * a->record_size));
 }
 
 /* The LAZ point data record format and twin named by a manifest row of
