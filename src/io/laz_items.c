@@ -620,7 +620,7 @@ laz_items *laz_items_create(const wpd_laz_item *list, uint32_t n)
     return it;
 }
 
-int laz_items_start(laz_items *it, const uint8_t *rec)
+void laz_items_start(laz_items *it, const uint8_t *rec)
 {
     it->epoch++;
     for (uint32_t i = 0; i < it->n; i++) {
@@ -633,7 +633,6 @@ int laz_items_start(laz_items *it, const uint8_t *rec)
         default: bytes_start(x->u.b, p); break;
         }
     }
-    return 0;
 }
 
 int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why)
@@ -643,10 +642,8 @@ int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why)
         uint8_t *p = rec + x->offset;
         switch (x->type) {
         case LAZ_ITEM_POINT10:
-            if (point10_decode(x->u.p, d, p, it->epoch)) {
-                *why = "out of memory for a model";
-                return -1;
-            }
+            if (point10_decode(x->u.p, d, p, it->epoch))
+                return -2;
             break;
         case LAZ_ITEM_GPSTIME11:
             if (gpstime_decode(x->u.g, d, p, why))

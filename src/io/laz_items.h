@@ -30,13 +30,12 @@ laz_items *laz_items_create(const wpd_laz_item *list, uint32_t n);
 void laz_items_free(laz_items *it);
 
 /* Starts a chunk whose first record is raw (already read into rec, the
- * whole record): resets every model and takes rec as the previous record.
- * Returns 0, or -1 if out of memory (models made on first use). */
-int laz_items_start(laz_items *it, const uint8_t *rec);
+ * whole record): resets every model and takes rec as the previous record. */
+void laz_items_start(laz_items *it, const uint8_t *rec);
 
 /* Decodes the next record of the chunk into rec from d. Returns 0, or -1
- * when the stream is found corrupt (a GPS time that never settles) or a
- * model cannot be allocated; *why then says which. */
+ * when the stream is found corrupt (a GPS time that never settles; *why
+ * says so) or -2 when a model made on first use cannot be allocated. */
 int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why);
 
 #endif

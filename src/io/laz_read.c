@@ -175,7 +175,8 @@ static int open_chunk(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *err
     laz_dec_init(&z->dec, &z->in);
     if (z->in.overrun)
         return fail_chunk(r, z, "the data end inside the chunk (file truncated?)", err);
-    return laz_items_start(z->items, rec);
+    laz_items_start(z->items, rec);
+    return 0;
 }
 
 /* Ends the current chunk: a valid stream ends exactly where the table says
@@ -200,7 +201,10 @@ static int next_point(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *err
             return -1;
     } else {
         const char *why = NULL;
-        if (laz_items_decode(z->items, &z->dec, rec, &why))
+        int rc = laz_items_decode(z->items, &z->dec, rec, &why);
+        if (rc == -2)
+            return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for a LAZ model", r->hdr.path);
+        if (rc)
             return fail_chunk(r, z, why, err);
     }
     z->next++;
@@ -251,6 +255,11 @@ static int laz_seek(wpd_reader *r, uint64_t index, wpd_error *err)
 {
     (void)err;
     laz_reader *z = r->impl;
+    if (index >= r->hdr.point_count) { /* nothing to decode */
+        z->next = z->skip_to = index;
+        z->chunk_left = 0;
+        return 0;
+    }
     uint64_t lo = 0, hi = z->nchunks; /* last chunk whose first point <= index */
     while (hi - lo > 1) {
         uint64_t mid = lo + (hi - lo) / 2;
