@@ -180,7 +180,8 @@ static void sym_update(laz_sym *m)
     m->until_update = m->update_cycle;
 }
 
-int laz_sym_create(laz_sym *m, uint32_t n)
+/* Allocates model m of n symbols without setting its statistics. */
+static int sym_alloc(laz_sym *m, uint32_t n)
 {
     memset(m, 0, sizeof *m);
     if (n < 2 || n > 2048)
@@ -199,6 +200,13 @@ int laz_sym_create(laz_sym *m, uint32_t n)
         return -1;
     m->count = m->distribution + n;
     m->table = m->table_size ? m->count + n : NULL;
+    return 0;
+}
+
+int laz_sym_create(laz_sym *m, uint32_t n)
+{
+    if (sym_alloc(m, n))
+        return -1;
     laz_sym_reset(m);
     return 0;
 }
@@ -292,6 +300,11 @@ uint32_t laz_dec_u32(laz_dec *d)
 
 /* ---- integer decompressor ---- */
 
+/* The models of a decompressor are many (a 32-bit one has 33 + 32 of up
+ * to 256 symbols) and most are never used in a chunk: each is reset when
+ * first used after laz_ic_reset (stamp != epoch), the same as resetting
+ * all at the chunk start, at a fraction of the cost. stamp holds the
+ * contexts' models first, then the correctors' (index contexts + k). */
 int laz_ic_create(laz_ic *ic, uint32_t bits, uint32_t contexts)
 {
     memset(ic, 0, sizeof *ic);
@@ -306,16 +319,18 @@ int laz_ic_create(laz_ic *ic, uint32_t bits, uint32_t contexts)
         ic->corr_range = 0;
         ic->corr_min = INT32_MIN;
     }
+    ic->epoch = 1;
     ic->m_bits = calloc(contexts, sizeof *ic->m_bits);
     ic->m_corr = calloc(ic->corr_bits + 1, sizeof *ic->m_corr);
-    if (!ic->m_bits || !ic->m_corr)
+    ic->stamp = calloc(contexts + ic->corr_bits + 1, sizeof *ic->stamp);
+    if (!ic->m_bits || !ic->m_corr || !ic->stamp)
         return -1;
     for (uint32_t i = 0; i < contexts; i++)
-        if (laz_sym_create(&ic->m_bits[i], ic->corr_bits + 1))
+        if (sym_alloc(&ic->m_bits[i], ic->corr_bits + 1))
             return -1;
     for (uint32_t i = 1; i <= ic->corr_bits; i++) {
         uint32_t b = i <= ic->bits_high ? i : ic->bits_high;
-        if (laz_sym_create(&ic->m_corr[i], 1u << b))
+        if (sym_alloc(&ic->m_corr[i], 1u << b))
             return -1;
     }
     laz_bit_init(&ic->m_corr0);
@@ -324,10 +339,7 @@ int laz_ic_create(laz_ic *ic, uint32_t bits, uint32_t contexts)
 
 void laz_ic_reset(laz_ic *ic)
 {
-    for (uint32_t i = 0; i < ic->contexts; i++)
-        laz_sym_reset(&ic->m_bits[i]);
-    for (uint32_t i = 1; i <= ic->corr_bits; i++)
-        laz_sym_reset(&ic->m_corr[i]);
+    ic->epoch++;
     laz_bit_init(&ic->m_corr0);
     ic->k = 0;
 }
@@ -342,24 +354,32 @@ void laz_ic_free(laz_ic *ic)
             laz_sym_free(&ic->m_corr[i]);
     free(ic->m_bits);
     free(ic->m_corr);
+    free(ic->stamp);
     memset(ic, 0, sizeof *ic);
+}
+
+/* Model m (stamp index i), reset first if not used since laz_ic_reset. */
+static inline laz_sym *ic_model(laz_ic *ic, laz_sym *m, uint32_t i)
+{
+    if (ic->stamp[i] != ic->epoch) {
+        laz_sym_reset(m);
+        ic->stamp[i] = ic->epoch;
+    }
+    return m;
 }
 
 /* The corrector: class k, then its value among the 2^(k-1) negative and
  * 2^(k-1) positive correctors of bit length k. */
-static int32_t read_corrector(laz_ic *ic, laz_dec *d, laz_sym *m_bits)
+static int32_t read_corrector(laz_ic *ic, laz_dec *d, uint32_t ctx)
 {
-    uint32_t k = ic->k = laz_dec_symbol(d, m_bits);
+    uint32_t k = ic->k = laz_dec_symbol(d, ic_model(ic, &ic->m_bits[ctx], ctx));
     if (!k)
         return (int32_t)laz_dec_bit(d, &ic->m_corr0);
     if (k >= 32)
         return ic->corr_min;
-    uint32_t c;
-    if (k <= ic->bits_high) {
-        c = laz_dec_symbol(d, &ic->m_corr[k]);
-    } else {
+    uint32_t c = laz_dec_symbol(d, ic_model(ic, &ic->m_corr[k], ic->contexts + k));
+    if (k > ic->bits_high) { /* the low bits raw */
         unsigned low = k - ic->bits_high;
-        c = laz_dec_symbol(d, &ic->m_corr[k]);
         c = (c << low) | laz_dec_bits(d, low);
     }
     /* Unsigned: a corrupt stream may give c past its class; wrap, no UB. */
@@ -370,7 +390,7 @@ static int32_t read_corrector(laz_ic *ic, laz_dec *d, laz_sym *m_bits)
 
 int32_t laz_ic_decode(laz_ic *ic, laz_dec *d, int32_t pred, uint32_t ctx)
 {
-    uint32_t real = (uint32_t)pred + (uint32_t)read_corrector(ic, d, &ic->m_bits[ctx]);
+    uint32_t real = (uint32_t)pred + (uint32_t)read_corrector(ic, d, ctx);
     if (ic->corr_range) { /* fold back into [0, corr_range) as the encoder did */
         if ((int32_t)real < 0)
             real += ic->corr_range;

@@ -101,12 +101,15 @@ typedef struct laz_ic {
     laz_sym *m_bits;        /* [contexts] */
     laz_bit m_corr0;        /* class k = 0: corrector 0 or 1 */
     laz_sym *m_corr;        /* [corr_bits + 1], index 0 unused */
+    uint32_t epoch;         /* laz_ic_reset count: models reset on first use */
+    uint32_t *stamp;        /* [contexts + corr_bits + 1]: epoch of each model's reset */
 } laz_ic;
 
 /* Creates a decompressor for values of bits bits (1..32) with contexts
  * contexts (bits_high 8, no range, as every LAZ item uses). Returns 0 or -1
- * if out of memory. */
+ * if out of memory; the models are then in their start state. */
 int laz_ic_create(laz_ic *ic, uint32_t bits, uint32_t contexts);
+/* Returns every model to its start state (lazily: see laz_coder.c). */
 void laz_ic_reset(laz_ic *ic);
 void laz_ic_free(laz_ic *ic);
 /* Decodes the value predicted as pred in context ctx (< contexts). */
