@@ -43,6 +43,10 @@ build/unit_tests: $(TEST_OBJ) build/libwpd.a
 build/spill_bench: bench/spill_bench.c build/libwpd.a
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< build/libwpd.a $(LDLIBS)
 
+# LAZ decode speed on 1..T threads (bench/laz.sh).
+build/laz_bench: bench/laz_bench.c build/libwpd.a
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< build/libwpd.a $(LDLIBS)
+
 -include $(LIB_OBJ:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_OBJ:.o=.d)
 
 # Installs the missing Debian build packages when run as root; otherwise
