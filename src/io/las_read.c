@@ -118,16 +118,13 @@ static uint64_t evlr_start_field(const wpd_las_info *las, const uint8_t *h)
     return las->version_minor >= 4 ? las_get_u64(h + LAS_OFF_EVLR_START) : 0;
 }
 
-static int fail_compressed(wpd_reader *r, int copc, wpd_error *err)
+/* COPC in an uncompressed file: a COPC file is LAZ (laz_read.c reads or
+ * refuses it); its VLR without compression is a contradiction. */
+static int fail_copc(wpd_reader *r, wpd_error *err)
 {
-    if (copc)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: COPC (cloud-optimized compressed LAS) is not supported; "
-                        "decompress it first (e.g. with laszip or pdal translate)",
-                        r->hdr.path);
     return wpd_fail(err, WPD_E_INPUT,
-                    "%s: compressed LAS (LAZ) is not supported; decompress it first "
-                    "(e.g. with laszip or pdal translate)",
+                    "%s: COPC (cloud-optimized compressed LAS) is not supported; "
+                    "decompress it first (e.g. with laszip or pdal translate)",
                     r->hdr.path);
 }
 
@@ -394,12 +391,12 @@ static int read_vlrs(wpd_reader *r, wpd_error *err)
     for (uint32_t i = 0; i < las->nvlr; i++) {
         const wpd_vlr *v = &las->vlrs[i];
         if (!strcmp(v->user_id, "copc") && !las->laz.compressed)
-            return fail_compressed(r, 1, err);
+            return fail_copc(r, err);
         if (!strcmp(v->user_id, WPD_LAZ_VLR_USER) && v->record_id == WPD_LAZ_VLR_RECORD) {
-            if (laszip++ || take_laszip_vlr(r, i--, err))
-                return laszip > 1 ? wpd_fail(err, WPD_E_INPUT, "%s: two LASzip VLRs (LAZ)",
-                                             r->hdr.path)
-                                  : -1;
+            if (laszip++)
+                return wpd_fail(err, WPD_E_INPUT, "%s: two LASzip VLRs (LAZ)", r->hdr.path);
+            if (take_laszip_vlr(r, i--, err)) /* i--: the list moved down by one */
+                return -1;
         }
     }
     if (las->laz.compressed && !laszip)
