@@ -43,6 +43,10 @@ build/unit_tests: $(TEST_OBJ) build/libwpd.a
 build/spill_bench: bench/spill_bench.c build/libwpd.a
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< build/libwpd.a $(LDLIBS)
 
+# LAZ decode speed on 1..T threads (bench/laz.sh).
+build/laz_bench: bench/laz_bench.c build/libwpd.a
+	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< build/libwpd.a $(LDLIBS)
+
 -include $(LIB_OBJ:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_OBJ:.o=.d)
 
 # Installs the missing Debian build packages when run as root; otherwise
@@ -79,7 +83,7 @@ clean:
 	rm -rf build wpd
 
 # ---- Hardening: fuzzing and sanitizer builds (docs/hardening.md) ----------
-# make fuzz [FUZZ_RUNS=N]  libFuzzer targets for the PLY and LAS readers and
+# make fuzz [FUZZ_RUNS=N]  libFuzzer targets for the PLY, LAS and LAZ readers and
 #                          the spill codec, one after the other on one core,
 #                          seeded from the data (the codec: generated seeds)
 # make fuzz-smoke          the same for FUZZ_SMOKE_RUNS executions (CI)
@@ -99,14 +103,15 @@ FUZZ_CFLAGS     := -O1 -g -fno-omit-frame-pointer -std=c11 -D_GNU_SOURCE -Wall -
 # Only what the readers need, compiled without OpenMP (the readers are
 # serial; clang's -fopenmp would need libomp-dev for nothing).
 FUZZ_LIB_SRC    := src/io/reader.c src/io/las_read.c src/io/las_schema.c src/io/ply_read.c \
-                   src/io/ply_header.c \
-                   src/io/ply_stream.c src/io/decimal.c src/io/schema.c src/io/batch.c \
+                   src/io/ply_header.c src/io/laz_vlr.c src/io/laz_read.c src/io/laz_items.c \
+                   src/io/laz_coder.c src/io/ply_stream.c src/io/decimal.c src/io/schema.c src/io/batch.c \
                    src/common/error.c src/common/fullio.c src/common/warnings.c
 FUZZ_LIB_OBJ    := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/%.o)
 # The spill codec is pure (no I/O, no threads): its two files and errors.
 FUZZ_CODEC_SRC  := src/spill/codec.c src/spill/planes.c src/common/error.c
 FUZZ_CODEC_OBJ  := $(FUZZ_CODEC_SRC:%.c=$(FUZZ_DIR)/%.o)
-FUZZ_TARGETS    := $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/fuzz_spill_codec
+FUZZ_TARGETS    := $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/fuzz_laz \
+                   $(FUZZ_DIR)/fuzz_spill_codec
 
 ASAN_DIR        := build/asan
 ASAN_SAN        := -fsanitize=address,undefined -fno-omit-frame-pointer \
@@ -130,6 +135,9 @@ $(FUZZ_DIR)/fuzz_ply: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ
 $(FUZZ_DIR)/fuzz_las: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -DFUZZ_LAS -o $@ $< $(FUZZ_LIB_OBJ) -lm
 
+$(FUZZ_DIR)/fuzz_laz: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -DFUZZ_LAZ -o $@ $< $(FUZZ_LIB_OBJ) -lm
+
 $(FUZZ_DIR)/fuzz_spill_codec: tests/fuzz/fuzz_spill_codec.c $(FUZZ_CODEC_OBJ)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_CODEC_OBJ) -lm
 
@@ -143,6 +151,7 @@ fuzz-seeds:
 fuzz: fuzz-build fuzz-seeds
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/ply $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/las $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_laz $(FUZZ_DIR)/seeds/laz $(FUZZ_DIR)/laz $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/seeds/codec $(FUZZ_DIR)/codec $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 
 # Fresh corpora and a fixed seed: the same executions on every CI run.
@@ -150,6 +159,7 @@ fuzz-smoke: fuzz-build fuzz-seeds
 	rm -rf $(FUZZ_DIR)/smoke
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/smoke/ply $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/smoke/las $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_laz $(FUZZ_DIR)/seeds/laz $(FUZZ_DIR)/smoke/laz $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/seeds/codec $(FUZZ_DIR)/smoke/codec $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 
 $(ASAN_DIR)/%.o: %.c

@@ -5,6 +5,7 @@
 #include "common/printable.h"
 #include "io/cloud.h"
 #include "io/las.h"
+#include "io/laz.h"
 #include "io/reader.h"
 
 #include <getopt.h>
@@ -85,13 +86,48 @@ static void text_schema(const wpd_schema *s)
     }
 }
 
+/* The LASzip VLR of a LAZ file: compressor, chunking, items. */
+static void text_laz(const wpd_laz_info *z)
+{
+    printf("  compressor:       %s (%u), LASzip %u.%ur%u\n", wpd_laz_compressor_name(z->compressor),
+           z->compressor, z->version_major, z->version_minor, z->version_revision);
+    if (z->compressor == 1)
+        printf("  chunks:           none (one stream)\n");
+    else if (z->chunk_size == UINT32_MAX || z->chunk_size == 0)
+        printf("  chunks:           variable size, %llu in the chunk table\n",
+               (unsigned long long)z->chunks);
+    else
+        printf("  chunks:           %u points each, %llu in the chunk table\n", z->chunk_size,
+               (unsigned long long)z->chunks);
+    printf("  items:           ");
+    for (uint16_t i = 0; i < z->nitems; i++)
+        printf(" %s%s (%u bytes, v%u)", i ? "+ " : "", wpd_laz_item_name(z->items[i].type),
+               z->items[i].size, z->items[i].version);
+    putchar('\n');
+}
+
+static void json_laz(const wpd_laz_info *z)
+{
+    printf(", \"laz\": {\"compressor\": %u, \"compressor_name\": \"%s\", \"laszip_version\": "
+           "\"%u.%ur%u\", \"chunk_size\": %u, \"chunks\": %llu, \"items\": [",
+           z->compressor, wpd_laz_compressor_name(z->compressor), z->version_major,
+           z->version_minor, z->version_revision, z->chunk_size, (unsigned long long)z->chunks);
+    for (uint16_t i = 0; i < z->nitems; i++)
+        printf("%s{\"type\": \"%s\", \"size\": %u, \"version\": %u}", i ? ", " : "",
+               wpd_laz_item_name(z->items[i].type), z->items[i].size, z->items[i].version);
+    fputs("]}", stdout);
+}
+
 static void print_text(const wpd_header *h, const wpd_bounds *b, uint64_t dropped)
 {
     printf("%s\n", h->path);
     if (h->format == WPD_FMT_LAS) {
         const wpd_las_info *l = &h->las;
-        printf("  format:           LAS %u.%u, point format %u, %u-byte records (%u extra bytes)\n",
-               l->version_major, l->version_minor, l->pdrf, l->record_length, l->extra_bytes);
+        printf("  format:           %s %u.%u, point format %u, %u-byte records (%u extra bytes)\n",
+               l->laz.compressed ? "LAZ" : "LAS", l->version_major, l->version_minor, l->pdrf,
+               l->record_length, l->extra_bytes);
+        if (l->laz.compressed)
+            text_laz(&l->laz);
     } else {
         printf("  format:           PLY %s\n", ply_encoding_name(h->ply.encoding));
     }
@@ -208,7 +244,8 @@ static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
     fputs(first ? "\n  {\"path\": " : ",\n  {\"path\": ", stdout);
     wpd_json_string(stdout, h->path);
     printf(", \"format\": \"%s\", \"point_count\": %llu",
-           h->format == WPD_FMT_LAS ? "LAS" : "PLY", (unsigned long long)h->point_count);
+           h->format != WPD_FMT_LAS ? "PLY" : h->las.laz.compressed ? "LAZ" : "LAS",
+           (unsigned long long)h->point_count);
     if (b) {
         printf(", \"finite_point_count\": %llu, \"dropped_non_finite\": %llu",
                (unsigned long long)b->count, (unsigned long long)dropped);
@@ -226,6 +263,8 @@ static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
         json_triple("offset", l->offset);
         json_vlrs("vlrs", l->vlrs, l->nvlr);
         json_vlrs("evlrs", l->evlrs, l->nevlr);
+        if (l->laz.compressed)
+            json_laz(&l->laz);
     } else {
         printf(", \"encoding\": \"%s\", \"elements\": [", ply_encoding_name(h->ply.encoding));
         for (uint32_t i = 0; i < h->ply.nelements; i++) {

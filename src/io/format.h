@@ -33,6 +33,12 @@ struct wpd_reader {
  * with err set; on failure nothing needs freeing beyond wpd_header_free. */
 int wpd_ply_open_reader(wpd_reader *r, wpd_error *err);
 int wpd_las_open_reader(wpd_reader *r, wpd_error *err);
+/* Called by wpd_las_open_reader for a compressed file once the header and
+ * VLRs are read (r->hdr.las.laz filled, the LASzip VLR taken out of the
+ * list, r->hdr.point_count set): checks the LASzip VLR against the header,
+ * reads the chunk table, sets r->ops and r->impl. *points_end is the end
+ * of the compressed points (after the chunk table when there is one). */
+int wpd_laz_open_reader(wpd_reader *r, uint64_t *points_end, wpd_error *err);
 
 typedef struct wpd_writer_ops {
     /* Same contract as wpd_writer_write; w->count must be maintained. */

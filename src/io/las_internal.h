@@ -82,4 +82,12 @@ static inline void las_copy_text(char *dst, const uint8_t *src, size_t width)
     dst[width] = '\0';
 }
 
+/* Decodes x, y, z of the n records (len bytes each) at rec into xyz with
+ * scale and offset. Records whose coordinates are not finite are removed
+ * (the rest moved down, in order). Returns the number kept. With a
+ * validated scale/offset nothing is ever removed, but the check keeps the
+ * reader contract independent of that validation. */
+size_t las_decode_xyz(const double scale[3], const double offset[3], uint32_t len,
+                      uint8_t *rec, size_t n, double *xyz);
+
 #endif

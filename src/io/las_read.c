@@ -3,11 +3,13 @@
  * Nothing in the header is trusted: every size, count and offset is checked
  * against the file size before anything is allocated or looped over. Points
  * are fixed-size records, so the reader streams them with pread(2) straight
- * into the batch and can start at any record index. LAZ and COPC (compressed
- * LAS) are refused with a message that says how to decompress them.
+ * into the batch and can start at any record index. LAZ (compressed LAS)
+ * headers and VLRs are read here, the points by laz_read.c; COPC VLRs in
+ * uncompressed files are refused.
  */
 #include "io/format.h"
 #include "io/las_internal.h"
+#include "io/laz.h"
 #include "common/fullio.h"
 
 #include <errno.h>
@@ -116,28 +118,13 @@ static uint64_t evlr_start_field(const wpd_las_info *las, const uint8_t *h)
     return las->version_minor >= 4 ? las_get_u64(h + LAS_OFF_EVLR_START) : 0;
 }
 
-/* 1 if the first VLR (where the COPC spec puts it) has user id "copc". */
-static int first_vlr_is_copc(wpd_reader *r)
+/* COPC in an uncompressed file: a COPC file is LAZ (laz_read.c reads or
+ * refuses it); its VLR without compression is a contradiction. */
+static int fail_copc(wpd_reader *r, wpd_error *err)
 {
-    const wpd_las_info *las = &r->hdr.las;
-    uint8_t vh[LAS_VLR_HEADER_SIZE];
-    if (!las->nvlr || (uint64_t)las->header_size + sizeof vh > r->hdr.file_size)
-        return 0;
-    if (read_at(r, vh, sizeof vh, las->header_size, "VLR", NULL))
-        return 0;
-    return !memcmp(vh + 2, "copc\0", 5);
-}
-
-static int fail_compressed(wpd_reader *r, int copc, wpd_error *err)
-{
-    if (copc)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: COPC (cloud-optimized compressed LAS) is not supported; "
-                        "decompress it first (e.g. with laszip or pdal translate)",
-                        r->hdr.path);
     return wpd_fail(err, WPD_E_INPUT,
-                    "%s: compressed LAS (LAZ) is not supported; decompress it first "
-                    "(e.g. with laszip or pdal translate)",
+                    "%s: COPC (cloud-optimized compressed LAS) is not supported; "
+                    "decompress it first (e.g. with laszip or pdal translate)",
                     r->hdr.path);
 }
 
@@ -236,10 +223,11 @@ static int read_header(wpd_reader *r, uint64_t *evlr_start, wpd_error *err)
     parse_header_fields(las, h);
     choose_point_count(r, h);
     *evlr_start = evlr_start_field(las, h);
-    /* LAZ marks compression in the top bits of the PDRF byte. */
+    /* LAZ marks compression in the top bits of the PDRF byte; the records
+     * it decompresses to are those of the format in the low bits. */
     if (las->pdrf & 0xC0) {
-        las->nvlr = las_get_u32(h + LAS_OFF_NVLR);
-        return fail_compressed(r, first_vlr_is_copc(r), err);
+        las->laz.compressed = 1;
+        las->pdrf &= 0x3F;
     }
     if (check_header_fields(r, standard, err))
         return -1;
@@ -363,6 +351,27 @@ static int keep_vlr_tail(wpd_reader *r, uint64_t vlr_end, wpd_error *err)
     return read_at(r, las->vlr_tail, len, vlr_end, "bytes before the point data", err);
 }
 
+/* Parses the LASzip VLR (index i) into las.laz and takes it out of the VLR
+ * list: the records read are decompressed, so what is written from them
+ * must not claim compression. A LASzip VLR without the compression bits
+ * leaves unclear whether the records are compressed: refused. */
+static int take_laszip_vlr(wpd_reader *r, uint32_t i, wpd_error *err)
+{
+    wpd_las_info *las = &r->hdr.las;
+    wpd_vlr *v = &las->vlrs[i];
+    if (!las->laz.compressed)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: a LASzip VLR (LAZ) is present but the point format byte does not "
+                        "mark compressed records",
+                        r->hdr.path);
+    if (wpd_laz_parse_vlr(r->hdr.path, v->data, v->length, &las->laz, err))
+        return -1;
+    free(v->data);
+    memmove(v, v + 1, (las->nvlr - i - 1) * sizeof *v);
+    las->nvlr--;
+    return 0;
+}
+
 /* VLRs: strict, since a VLR count or length that runs into the point data
  * (PDAL's bad_vlr_count.las) leaves it unclear where anything is. */
 static int read_vlrs(wpd_reader *r, wpd_error *err)
@@ -378,13 +387,23 @@ static int read_vlrs(wpd_reader *r, wpd_error *err)
         return -1;
     }
     las->nvlr = n;
-    for (uint32_t i = 0; i < n; i++) {
+    int laszip = 0;
+    for (uint32_t i = 0; i < las->nvlr; i++) {
         const wpd_vlr *v = &las->vlrs[i];
-        if (!strcmp(v->user_id, "copc"))
-            return fail_compressed(r, 1, err);
-        if (!strcmp(v->user_id, "laszip encoded")) /* record 22204 */
-            return fail_compressed(r, 0, err);
+        if (!strcmp(v->user_id, "copc") && !las->laz.compressed)
+            return fail_copc(r, err);
+        if (!strcmp(v->user_id, WPD_LAZ_VLR_USER) && v->record_id == WPD_LAZ_VLR_RECORD) {
+            if (laszip++)
+                return wpd_fail(err, WPD_E_INPUT, "%s: two LASzip VLRs (LAZ)", r->hdr.path);
+            if (take_laszip_vlr(r, i--, err)) /* i--: the list moved down by one */
+                return -1;
+        }
     }
+    if (las->laz.compressed && !laszip)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: the point format byte marks compressed LAS (LAZ) but there is no "
+                        "LASzip VLR (\"%s\", record %d)",
+                        r->hdr.path, WPD_LAZ_VLR_USER, WPD_LAZ_VLR_RECORD);
     return keep_vlr_tail(r, vlr_end, err);
 }
 
@@ -514,15 +533,11 @@ static int check_point_data(wpd_reader *r, uint64_t *points_end, wpd_error *err)
 
 /* ---- streaming ---- */
 
-/* Decodes x, y, z of n records at rec into xyz. Records whose coordinates
- * are not finite are removed (the rest moved down, in order). Returns the
- * number kept. With a validated scale/offset nothing is ever removed, but
- * the check keeps the reader contract independent of that validation. */
-static size_t decode_xyz(const las_reader *L, uint8_t *rec, size_t n, double *xyz)
+size_t las_decode_xyz(const double scale[3], const double offset[3], uint32_t len,
+                      uint8_t *rec, size_t n, double *xyz)
 {
-    const uint32_t len = L->record_length;
-    const double sx = L->scale[0], sy = L->scale[1], sz = L->scale[2];
-    const double ox = L->offset[0], oy = L->offset[1], oz = L->offset[2];
+    const double sx = scale[0], sy = scale[1], sz = scale[2];
+    const double ox = offset[0], oy = offset[1], oz = offset[2];
     int bad = 0;
     for (size_t i = 0; i < n; i++) {
         const uint8_t *p = rec + i * len;
@@ -571,7 +586,7 @@ static long las_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
             if (read_at(r, dst, n * len, L->data_start + (L->next + done) * len,
                         "point data", err))
                 return -1;
-            size_t k = decode_xyz(L, dst, n, b->xyz + 3 * kept);
+            size_t k = las_decode_xyz(L->scale, L->offset, len, dst, n, b->xyz + 3 * kept);
             r->dropped += n - k;
             kept += k;
             done += n;
@@ -602,15 +617,23 @@ int wpd_las_open_reader(wpd_reader *r, wpd_error *err)
     wpd_las_info *las = &r->hdr.las;
     uint64_t evlr_start = 0, points_end = 0, claimed = 0;
     r->hdr.format = WPD_FMT_LAS;
-    if (read_header(r, &evlr_start, err) || read_vlrs(r, err) ||
-        check_point_data(r, &points_end, err) ||
-        read_evlrs(r, evlr_start, points_end, &claimed, err))
+    if (read_header(r, &evlr_start, err) || read_vlrs(r, err))
+        return -1;
+    r->hdr.point_count = las->point_count;
+    int laz = las->laz.compressed;
+    /* LAZ: the reader is laz_read.c's, which knows where the compressed
+     * points end (the chunk table) and checks them as it decodes. */
+    if (laz ? wpd_laz_open_reader(r, &points_end, err) : check_point_data(r, &points_end, err))
+        return -1;
+    if (read_evlrs(r, evlr_start, points_end, &claimed, err))
         return -1;
     check_waveform_pointer(r, points_end);
-    check_unclaimed_bytes(r, points_end, claimed);
-    r->hdr.point_count = las->point_count;
+    if (!laz)
+        check_unclaimed_bytes(r, points_end, claimed);
     if (wpd_las_schema_from_info(&r->hdr, err))
         return -1;
+    if (laz)
+        return 0;
     las_reader *L = calloc(1, sizeof *L);
     if (!L)
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", r->hdr.path);

@@ -59,6 +59,26 @@ typedef struct wpd_vlr {
     uint8_t *data;                /* payload (owned), length bytes */
 } wpd_vlr;
 
+/* LAZ (compressed LAS): the LASzip VLR ("laszip encoded", record 22204),
+ * which the reader takes out of the VLR list (the records it delivers are
+ * decompressed), and what the chunk table gave. */
+#define WPD_LAZ_MAX_ITEMS 8
+typedef struct wpd_laz_item {
+    uint16_t type, size, version;
+} wpd_laz_item;
+
+typedef struct wpd_laz_info {
+    int compressed;               /* 1 for a LAZ file */
+    uint16_t compressor, coder;   /* compressor 1 point-wise, 2 point-wise
+                                     chunked, 3 layered chunked */
+    uint8_t version_major, version_minor;
+    uint16_t version_revision;
+    uint32_t options, chunk_size; /* chunk_size 0xFFFFFFFF: variable chunks */
+    uint16_t nitems;
+    wpd_laz_item items[WPD_LAZ_MAX_ITEMS];
+    uint64_t chunks;              /* chunks in the chunk table, 0 if none read */
+} wpd_laz_info;
+
 typedef struct wpd_las_info {
     uint8_t version_major, version_minor;
     uint8_t pdrf;                 /* point data record format 0..10 */
@@ -83,6 +103,7 @@ typedef struct wpd_las_info {
     uint8_t *vlr_tail;            /* bytes between the last VLR and the point
                                      data (owned; LAS 1.0: the start signature) */
     uint32_t vlr_tail_len;
+    wpd_laz_info laz;             /* compressed files only (laz.compressed) */
 } wpd_las_info;
 
 /* ---- PLY header facts ---- */

@@ -3,7 +3,9 @@
  * body; the input's format line picks ascii, binary_little_endian or
  * binary_big_endian, so one target covers the three encodings) and with
  * -DFUZZ_LAS for the LAS reader (header, VLRs, EVLRs, point records of PDRF
- * 0-10, extra bytes).
+ * 0-10, extra bytes), and with -DFUZZ_LAZ for LAZ (LAS files whose point
+ * format byte marks compression: the LASzip VLR, the chunk table, the
+ * arithmetic decoder and item decoders).
  *
  * The readers open files by path, so each input is written to one memfd
  * (made once, truncated per run) and opened as /proc/self/fd/N: no disk
@@ -22,11 +24,24 @@
 
 #if defined(FUZZ_PLY)
 #define FUZZ_MAGIC "ply"
-#elif defined(FUZZ_LAS)
+#elif defined(FUZZ_LAS) || defined(FUZZ_LAZ)
 #define FUZZ_MAGIC "LASF"
 #else
-#error "build with -DFUZZ_PLY or -DFUZZ_LAS"
+#error "build with -DFUZZ_PLY, -DFUZZ_LAS or -DFUZZ_LAZ"
 #endif
+
+/* 1 if data is for this target: its signature, and for LAZ the
+ * compression bits of the point format byte (offset 104). */
+static int wanted(const uint8_t *data, size_t size)
+{
+    if (size < sizeof FUZZ_MAGIC - 1 || memcmp(data, FUZZ_MAGIC, sizeof FUZZ_MAGIC - 1))
+        return 0;
+#if defined(FUZZ_LAZ)
+    return size > 104 && (data[104] & 0xC0);
+#else
+    return 1;
+#endif
+}
 
 static int memfd = -1;
 static char memfd_path[64];
@@ -67,7 +82,7 @@ static void load_input(const uint8_t *data, size_t size)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    if (size < sizeof FUZZ_MAGIC - 1 || memcmp(data, FUZZ_MAGIC, sizeof FUZZ_MAGIC - 1))
+    if (!wanted(data, size))
         return -1;
     load_input(data, size);
     wpd_error err;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Builds the fuzz seed corpora (build/fuzz/seeds/{ply,las}) from the shared
+"""Builds the fuzz seed corpora (build/fuzz/seeds/{ply,las,laz}) from the shared
 test data, small enough that every execution is fast.
 
   make_seeds.py DATA_DIR OUT_DIR [MAX_LEN]
@@ -16,6 +16,10 @@ offsets patched so the seed is still valid. Malformed or compressed files
 are kept as their first MAX_LEN bytes. PDRFs the data lacks are covered by
 synthetic files: one per PDRF 0-10, with an Extra Bytes VLR (scaled,
 array and undocumented extra bytes) and, for LAS 1.3/1.4, an EVLR.
+
+LAZ: every file under DATA_DIR/laz, whole when it is small, else cut to
+the first points of its first chunk (laz_seed): decoding is the cost of an
+execution, so the seeds hold few points.
 
 The seeds are build products: never commit them (the data's licences are
 the data's). Nothing here is random: the same data gives the same seeds.
@@ -37,6 +41,8 @@ ENCODINGS = ("ascii", "binary_little_endian", "binary_big_endian")
 VERTEX_ITEMS = 300   # vertices kept per PLY seed (fewer if MAX_LEN needs it)
 OTHER_ITEMS = 40     # items kept of other PLY elements
 LAS_POINTS = 300     # point records kept per LAS seed
+LAZ_SMALL = 4096     # LAZ files up to this size are seeds as they are
+LAZ_POINTS = 200     # points kept of larger LAZ files
 
 
 class Bad(Exception):
@@ -226,6 +232,38 @@ def ply_synthetic():
 
 # ---------------------------------------------------------------- LAS
 
+def laz_seed(data, max_len):
+    """A LAZ file small enough to decode fast under the sanitizers: whole
+    when it has at most LAZ_SMALL bytes (its chunk table then valid), else
+    cut to LAZ_POINTS points of its first chunk: the counts patched and the
+    bytes those points need kept (three times the file's mean per point, plus a
+    margin), the chunk table offset made invalid so that the reader takes
+    the sequential path (with its warning). Files the cut cannot apply to
+    are kept as their first bytes."""
+    if len(data) <= LAZ_SMALL:
+        return data
+    try:
+        off, = struct.unpack_from("<I", data, 96)
+        rl, = struct.unpack_from("<H", data, 105)
+        count, = struct.unpack_from("<I", data, 107)
+        if data[25] >= 4:
+            count = struct.unpack_from("<Q", data, 247)[0] or count
+    except struct.error:
+        return data[:max_len]
+    if count <= LAZ_POINTS or off + 8 > len(data):
+        return data[:max_len]
+    per_point = (len(data) - off) / count
+    keep = off + 8 + rl + int(3 * per_point * LAZ_POINTS) + 1024
+    seed = bytearray(data[:min(keep, max_len, len(data))])
+    struct.pack_into("<q", seed, off, 0)  # no chunk table: read sequentially
+    if struct.unpack_from("<I", seed, 107)[0]:
+        struct.pack_into("<I", seed, 107, LAZ_POINTS)
+    if seed[25] >= 4:
+        struct.pack_into("<Q", seed, 247, LAZ_POINTS)
+        struct.pack_into("<QI", seed, 235, 0, 0)  # EVLRs were cut off
+    return bytes(seed)
+
+
 def las_seed(data, max_len):
     """The file cut to header, VLRs that fit, LAS_POINTS points and its
     EVLRs, counts and offsets patched; raises Bad when it is malformed."""
@@ -384,14 +422,18 @@ def main():
     data_dir, out_dir = sys.argv[1], sys.argv[2]
     max_len = int(sys.argv[3]) if len(sys.argv) > 3 else 65536
     counts = {}
-    for kind in ("ply", "las"):
+    for kind in ("ply", "las", "laz"):
         d = os.path.join(out_dir, kind)
         os.makedirs(d, exist_ok=True)
         for old in os.listdir(d):
             os.remove(os.path.join(d, old))
         seen = set()
         n = 0
-        if kind == "ply":
+        if kind == "laz":
+            for _, path in files(data_dir, ("laz",), ".laz"):
+                with open(path, "rb") as f:
+                    n += save(d, [laz_seed(f.read(), max_len)], seen)
+        elif kind == "ply":
             for _, path in files(data_dir, ("ply", "scans", "bad"), ".ply"):
                 with open(path, "rb") as f:
                     n += save(d, ply_seeds(f.read(), max_len), seen)
@@ -409,8 +451,8 @@ def main():
                 minors = [2, 4] if pdrf < 4 else [3, 4] if pdrf < 6 else [4]
                 n += save(d, [las_synthetic(pdrf, m) for m in minors], seen)
         counts[kind] = n
-    print("seeds: %d ply, %d las (max %d bytes) in %s" % (counts["ply"], counts["las"], max_len,
-                                                         out_dir))
+    print("seeds: %d ply, %d las, %d laz (max %d bytes) in %s"
+          % (counts["ply"], counts["las"], counts["laz"], max_len, out_dir))
 
 
 if __name__ == "__main__":

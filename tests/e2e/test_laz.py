@@ -1,0 +1,103 @@
+"""LAZ input (issue 13, first milestone: reading point formats 0-5):
+`wpd info`, `wpd convert` and `wpd resample` on LAZ files against their
+decompressed twins in ../shared/data/laz; damaged LAZ files fail with one
+line and exit 2."""
+import json
+import struct
+
+from harness import data, wpd
+
+
+def records(path):
+    """(count, point record bytes) of an uncompressed LAS file."""
+    with open(path, "rb") as f:
+        b = f.read()
+    off = struct.unpack_from("<I", b, 96)[0]
+    reclen = struct.unpack_from("<H", b, 105)[0]
+    n = struct.unpack_from("<I", b, 107)[0]
+    if b[25] >= 4:
+        n = struct.unpack_from("<Q", b, 247)[0] or n
+    return n, b[off:off + n * reclen]
+
+
+def test_laz_convert_gives_the_twin_records():
+    for name in ("lastools_house", "pdal_autzen_trim", "laspy_extra", "rlas_extra_byte"):
+        wpd("convert", data("laz", name + ".laz"), name + ".las")
+        got, want = records(name + ".las"), records(data("laz", name + ".las"))
+        assert got == want, (name, got[0], want[0])
+        # what was written is plain LAS: no compression bits, no LASzip VLR
+        with open(name + ".las", "rb") as f:
+            head = f.read(4096)
+        assert head[104] < 64 and b"laszip encoded" not in head, name
+
+
+def test_laz_info_shows_compressor_chunks_items():
+    path = data("laz", "lastools_fusa.laz")
+    out = wpd("info", path).stdout
+    assert "format:           LAZ 1.1, point format 1" in out, out
+    assert "compressor:       point-wise chunked (2), LASzip 2.0r1" in out, out
+    assert "chunks:           50000 points each, 6 in the chunk table" in out, out
+    assert "POINT10 (20 bytes, v2) + GPSTIME11 (8 bytes, v2)" in out, out
+    got = json.loads(wpd("info", "--json", path).stdout)["files"][0]
+    assert got["format"] == "LAZ" and got["point_count"] == 277573, got
+    laz = got["laz"]
+    assert laz["compressor"] == 2 and laz["chunk_size"] == 50000 and laz["chunks"] == 6, laz
+    assert [i["type"] for i in laz["items"]] == ["POINT10", "GPSTIME11"], laz
+
+
+def test_laz_resample_same_bytes_as_las_twin():
+    """In memory and through the tiled engine (which reads point ranges in
+    parallel, seeking through the chunk table), on 1 and 2 threads."""
+    laz, las = data("laz", "lastools_fusa.laz"), data("laz", "lastools_fusa.las")
+    for extra in ((), ("--min-tiles", 4)):
+        for threads in (1, 2):
+            opts = ("-n", 20000, "--no-smooth", "--threads", threads, *extra)
+            wpd("resample", laz, "-o", "from_laz.las", *opts, "--force")
+            wpd("resample", las, "-o", "from_las.las", *opts, "--force")
+            with open("from_laz.las", "rb") as a, open("from_las.las", "rb") as b:
+                assert a.read() == b.read(), (extra, threads)
+
+
+def test_laz_refusals_are_one_line():
+    cases = (("rlas_las14_prf6.laz", "layered compressor) is not supported yet"),
+             ("rlas_fwf.laz", "waveform packets in LAZ are not supported"),
+             ("pdal_simple-laszip-compressor-version-1.2r0.laz", "LASzip 1.x"))
+    for name, expect in cases:
+        path = data("laz", name)
+        for cmd in (("info", path), ("convert", path, "out.las")):
+            p = wpd(*cmd, check=False)
+            lines = p.stderr.strip().splitlines()
+            assert p.returncode == 2 and len(lines) == 1 and expect in lines[0], (cmd, p.stderr)
+            assert path in lines[0], lines
+
+
+def test_laz_damaged_exit_2():
+    with open(data("laz", "lastools_house.laz"), "rb") as f:
+        b = bytearray(f.read())
+    off = struct.unpack_from("<I", b, 96)[0]
+    with open("cut.laz", "wb") as f:
+        f.write(b[:len(b) // 2])
+    corrupt = bytearray(b)
+    for i in range(off + 8 + 28 + 1000, off + 8 + 28 + 1100):
+        corrupt[i] = (i * 37) & 255
+    with open("corrupt.laz", "wb") as f:
+        f.write(corrupt)
+    for name in ("cut.laz", "corrupt.laz"):
+        for cmd in (("info", name), ("convert", name, "out.las", "--force")):
+            p = wpd(*cmd, check=False)
+            # cut.laz also warns that its chunk table is gone (read on sequentially)
+            lines = [l for l in p.stderr.strip().splitlines() if ": warning: " not in l]
+            assert p.returncode == 2 and len(lines) == 1 and "LAZ chunk" in lines[0], \
+                (cmd, p.returncode, p.stderr)
+
+
+def test_laz_unusable_chunk_table_reads_with_warning():
+    with open(data("laz", "lastools_house.laz"), "rb") as f:
+        b = bytearray(f.read())
+    off = struct.unpack_from("<I", b, 96)[0]
+    struct.pack_into("<q", b, off, len(b) + 1000)   # table offset past the end
+    with open("notable.laz", "wb") as f:
+        f.write(b)
+    p = wpd("convert", "notable.laz", "out.las")
+    assert "warning" in p.stderr and "chunk table is unusable" in p.stderr, p.stderr
+    assert records("out.las") == records(data("laz", "lastools_house.las"))
