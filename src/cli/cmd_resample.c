@@ -660,30 +660,36 @@ static int drop_up_to_date(char **inputs, int n, const char *outdir)
     return kept;
 }
 
+/* The command after its options are parsed. */
+static int run_command(char **inputs, int ninputs, resample_options *o)
+{
+    if (o->params.threads > 0)
+        omp_set_num_threads(o->params.threads);
+    wpd_error err = {0};
+    if (o->skip_existing && (ninputs = drop_up_to_date(inputs, ninputs, o->per_input)) == 0) {
+        if (!o->quiet)
+            printf("every output in %s is newer than its input: nothing to do\n", o->per_input);
+        return 0;
+    }
+    const char *target = o->output ? o->output : o->per_input;
+    sweep_leftovers(o);
+    int lock = wpd_output_lock(target, &err);
+    if (lock < 0)
+        return wpd_report_error("resample", &err);
+    int rc = resample(inputs, ninputs, o, &err);
+    wpd_output_unlock(lock, target);
+    return rc ? wpd_report_error("resample", &err) : 0;
+}
+
 int wpd_cmd_resample(int argc, char **argv)
 {
     resample_options o;
     int first;
     int rc = parse_args(argc, argv, &o, &first);
-    if (rc)
-        return rc > 0 ? 0 : WPD_E_USAGE;
-    if (o.params.threads > 0)
-        omp_set_num_threads(o.params.threads);
-    wpd_error err = {0};
-    char **inputs = argv + first;
-    int ninputs = argc - first;
-    if (o.skip_existing && (ninputs = drop_up_to_date(inputs, ninputs, o.per_input)) == 0) {
-        if (!o.quiet)
-            printf("every output in %s is newer than its input: nothing to do\n", o.per_input);
-        return 0;
-    }
-    const char *target = o.output ? o.output : o.per_input;
-    sweep_leftovers(&o);
-    int lock = wpd_output_lock(target, &err);
-    if (lock < 0)
-        return wpd_report_error("resample", &err);
-    rc = resample(inputs, ninputs, &o, &err);
-    wpd_class_args_free(&o.classes);
-    wpd_output_unlock(lock, target);
-    return rc ? wpd_report_error("resample", &err) : 0;
+    if (rc == 0)
+        rc = run_command(argv + first, argc - first, &o);
+    else
+        rc = rc > 0 ? 0 : WPD_E_USAGE;
+    wpd_class_args_free(&o.classes); /* on every path: also after a usage error */
+    return rc;
 }
