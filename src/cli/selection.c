@@ -122,10 +122,9 @@ static int advance_to(writing *ws, int k, wpd_error *err)
 
 /* The sink of the records pass: n samples of input file `file` in the
  * input layout, to the open output's layout, written. */
-static int write_samples(void *arg, int file, const uint64_t *gid, const double *xyz,
-                         const uint8_t *edge, const uint8_t *records, size_t n, wpd_error *err)
+static int write_samples(void *arg, int file, const double *xyz, const uint8_t *edge,
+                         const uint8_t *records, size_t n, wpd_error *err)
 {
-    (void)gid;
     writing *ws = arg;
     int k = ws->target->path ? 0 : file;
     if (advance_to(ws, k, err))

@@ -150,6 +150,16 @@ long wpd_class_of(const wpd_dim *f, const uint8_t *record)
     return v >= 0 && v <= WPD_CLASS_MAX && v == (long)v ? (long)v : -1;
 }
 
+long wpd_class_checked(const wpd_dim *f, const uint8_t *record, const char *path,
+                       wpd_error *err)
+{
+    long cls = wpd_class_of(f, record);
+    if (cls < 0)
+        return wpd_fail(err, WPD_E_INPUT, "%s: field %s holds %g, not a class (an integer in "
+                        "0-%d)", path, f->name, wpd_dim_get(f, record), WPD_CLASS_MAX);
+    return cls;
+}
+
 /* Keeps the points of b whose class the filter accepts, in order. Returns
  * how many, or -1 with err set (a class out of range). */
 static long apply_filter(wpd_cloud *c, wpd_batch *b, wpd_error *err)
@@ -158,11 +168,9 @@ static long apply_filter(wpd_cloud *c, wpd_batch *b, wpd_error *err)
     size_t rs = b->record_size, kept = 0;
     for (size_t i = 0; i < b->n; i++) {
         const uint8_t *rec = b->records + i * rs;
-        long cls = wpd_class_of(&f->field, rec);
+        long cls = wpd_class_checked(&f->field, rec, c->headers[c->current].path, err);
         if (cls < 0)
-            return wpd_fail(err, WPD_E_INPUT, "%s: field %s holds %g, not a class (an integer "
-                            "in 0-%d)", c->headers[c->current].path, f->field.name,
-                            wpd_dim_get(&f->field, rec), WPD_CLASS_MAX);
+            return -1;
         if (!f->accept[cls])
             continue;
         if (kept != i) {

@@ -83,6 +83,11 @@ typedef struct wpd_point_filter {
  * not an integer in 0..WPD_CLASS_MAX. */
 long wpd_class_of(const wpd_dim *f, const uint8_t *record);
 
+/* As wpd_class_of, with the one-line error (WPD_E_INPUT, naming path, the
+ * field and the value) set in err when the value is not a class. */
+long wpd_class_checked(const wpd_dim *f, const uint8_t *record, const char *path,
+                       wpd_error *err);
+
 /* From now on (and in its reopened copies) c delivers only the finite
  * points whose class f accepts (f, kept by the caller, outlives c; NULL:
  * every finite point again). The others are skipped and counted

@@ -35,17 +35,23 @@ typedef struct histogram {
     uint64_t *lane;           /* [lanes][NCLASSES] */
 } histogram;
 
-/* The class of each record of a batch, or -1 with err naming the file. */
-static int class_checked(const wpd_cloud *c, int file, const wpd_dim *f, const uint8_t *rec,
-                         wpd_error *err)
+/* The class of a record of input file `file`, or -1 with err naming it. */
+static long class_checked(const wpd_cloud *c, int file, const wpd_dim *f, const uint8_t *rec,
+                          wpd_error *err)
 {
-    long cls = wpd_class_of(f, rec);
-    if (cls < 0)
-        return wpd_fail(err, WPD_E_INPUT, "%s: field %s holds %g, not a class (an integer in "
-                        "0-%d)", wpd_cloud_header(c, file)->path, f->name, wpd_dim_get(f, rec),
-                        WPD_CLASS_MAX);
-    return (int)cls;
+    return wpd_class_checked(f, rec, wpd_cloud_header(c, file)->path, err);
 }
+
+/* Lanes of a pass of this run with per_lane bytes of state each. */
+static int pass_lanes(const wpd_resample_options *opt, size_t per_lane)
+{
+    int want = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
+    return wpd_budget_pass_threads(opt->mem_bytes, want, 0, per_lane);
+}
+
+/* Bytes one output point takes until it is written: global index,
+ * coordinates, sharp label. */
+#define OUTPUT_POINT_BYTES (sizeof(uint64_t) + 3 * sizeof(double) + 1)
 
 static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
@@ -53,8 +59,8 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
     uint64_t *count = h->lane + (size_t)pb->lane * NCLASSES;
     const wpd_batch *b = pb->batch;
     for (size_t i = 0; i < b->n; i++) {
-        int cls = class_checked(h->cloud, pb->file, h->field, b->records + i * b->record_size,
-                                err);
+        long cls = class_checked(h->cloud, pb->file, h->field, b->records + i * b->record_size,
+                                 err);
         if (cls < 0)
             return -1;
         count[cls]++;
@@ -66,9 +72,7 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 static int class_histogram(wpd_cloud *cloud, const wpd_class_options *o,
                            const wpd_resample_options *opt, uint64_t *count, wpd_error *err)
 {
-    int want = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
-    size_t per_lane = wpd_pass_lane_bytes(cloud) + NCLASSES * sizeof(uint64_t);
-    int threads = wpd_budget_pass_threads(opt->mem_bytes, want, 0, per_lane);
+    int threads = pass_lanes(opt, wpd_pass_lane_bytes(cloud) + NCLASSES * sizeof(uint64_t));
     histogram h = {cloud, &o->field, calloc((size_t)threads * NCLASSES, sizeof(uint64_t))};
     if (!h.lane)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the class histogram");
@@ -148,7 +152,7 @@ static int in_group(const wpd_class_options *o, const wpd_class_group *g, long c
 /* Bytes a finished run holds until the merge. */
 static size_t held_bytes(const wpd_resample_result *r)
 {
-    return r->count * (sizeof *r->gid + 3 * sizeof *r->xyz + 1);
+    return r->count * OUTPUT_POINT_BYTES;
 }
 
 static void add_times(wpd_resample_timings *sum, const wpd_resample_timings *t)
@@ -172,7 +176,7 @@ static int check_output_fits(const wpd_class_result *out, const uint64_t *count,
         const wpd_class_group *g = &out->groups[i];
         n += g->whole ? g->points : g->target;
     }
-    double need = 2.0 * (double)n * (double)(sizeof(uint64_t) + 3 * sizeof(double) + 1);
+    double need = 2.0 * (double)n * (double)OUTPUT_POINT_BYTES;
     if (need > (double)mem)
         return wpd_fail(err, WPD_E_MEMORY, "memory budget too small: the %llu output points "
                         "(kept classes included) need at least %.0f MiB (--mem)",
@@ -252,7 +256,7 @@ static int merge_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
     const wpd_batch *b = pb->batch;
     for (size_t i = 0; i < b->n; i++) {
         const uint8_t *rec = b->records + i * b->record_size;
-        int cls = class_checked(mg->cloud, pb->file, &mg->o->field, rec, err);
+        long cls = class_checked(mg->cloud, pb->file, &mg->o->field, rec, err);
         if (cls < 0)
             return -1;
         size_t before = mg->out->merged.count;
@@ -337,10 +341,8 @@ static int merge_pass(wpd_cloud *cloud, const wpd_class_options *o,
         goto done;
     out->output_filter = (wpd_point_filter){o->field, accept};
     wpd_cloud_set_filter(cloud, &out->output_filter);
-    int want = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
     wpd_pass pass = {.cloud = cloud, .commit = merge_commit, .arg = &mg,
-                     .threads = wpd_budget_pass_threads(opt->mem_bytes, want, 0,
-                                                        wpd_pass_lane_bytes(cloud)),
+                     .threads = pass_lanes(opt, wpd_pass_lane_bytes(cloud)),
                      .progress = opt->progress};
     wpd_progress_phase(opt->progress, "merge", wpd_cloud_count(cloud), "points");
     rc = wpd_cloud_rewind(cloud, err) || wpd_pass_run(&pass, err) ? -1 : 0;

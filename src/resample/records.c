@@ -57,8 +57,8 @@ static int stream_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
     for (size_t k = from; k < i; k++)
         memcpy(s->buf + (k - from) * rs, b->records + (set->gid[k] - first) * rs, rs);
     s->next = i;
-    return s->sink(s->arg, pb->file, set->gid + from, set->xyz + 3 * from,
-                   set->edge ? set->edge + from : NULL, s->buf, i - from, err);
+    return s->sink(s->arg, pb->file, set->xyz + 3 * from, set->edge ? set->edge + from : NULL,
+                   s->buf, i - from, err);
 }
 
 int wpd_resample_stream_records(wpd_cloud *cloud, const wpd_sample_set *set, size_t mem_bytes,

@@ -105,13 +105,12 @@ typedef struct wpd_sample_set {
     const uint8_t *edge;
 } wpd_sample_set;
 
-/* Takes n samples (gid, xyz, edge: the set's arrays from some offset;
- * edge NULL when the set has none) with their input records (records: n
- * records of the cloud's record size), all from input file `file`.
- * Returns 0, or -1 with err set. */
-typedef int (*wpd_sample_sink)(void *arg, int file, const uint64_t *gid, const double *xyz,
-                               const uint8_t *edge, const uint8_t *records, size_t n,
-                               wpd_error *err);
+/* Takes the next n samples in global-index order (xyz, edge: the set's
+ * arrays from some offset; edge NULL when the set has none) with their
+ * input records (records: n records of the cloud's record size), all from
+ * input file `file`. Returns 0, or -1 with err set. */
+typedef int (*wpd_sample_sink)(void *arg, int file, const double *xyz, const uint8_t *edge,
+                               const uint8_t *records, size_t n, wpd_error *err);
 
 /* The records pass: reads cloud once in order (with the filter it has, the
  * one the run had) and hands set's samples to sink, batch by batch, in
