@@ -137,12 +137,12 @@ static void write_body(FILE *f, const wpd_run_info *r)
     fprintf(f, "  \"first_pass_points\": %zu,\n  \"poisson_points\": %zu,\n"
                "  \"poisson_passes\": %d,\n  \"resolution_rounds\": %d,\n"
                "  \"resolution_tiles\": %d,\n"
-               "  \"exact_sweeps\": %d,\n"
+               "  \"exact_sweeps\": %d,\n  \"exact_rounds\": %d,\n"
                "  \"open_cells\": %zu,\n  \"pulled_to_surface\": %zu,\n"
                "  \"non_surface\": %zu,\n  \"isolated\": %zu,\n  \"guarded_moves\": %zu,\n",
             run->first_pass_count, run->poisson_count, run->passes, run->resolution_rounds,
             run->resolution_tiles,
-            run->exact_sweeps,
+            run->exact_sweeps, run->exact_rounds,
             run->open_cells, run->pulled_to_surface, run->non_surface, run->isolated,
             run->guarded_moves);
     write_phases(f, r);

@@ -390,6 +390,7 @@ static void merged_facts(wpd_class_result *out, const uint64_t *count)
     m->radius_estimate = first->radius_estimate, m->radius = first->radius;
     m->first_pass_count = first->first_pass_count, m->poisson_count = first->poisson_count;
     m->passes = first->passes, m->exact_sweeps = first->exact_sweeps;
+    m->exact_rounds = first->exact_rounds;
     m->open_cells = first->open_cells, m->pulled_to_surface = first->pulled_to_surface;
     m->non_surface = first->non_surface, m->isolated = first->isolated;
     m->guarded_moves = first->guarded_moves, m->sharp_points = first->sharp_points;

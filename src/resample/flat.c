@@ -1,12 +1,10 @@
-/* flat.c - the flat sample set (flat.h), and the exact count, which works
- * on it: it sees every sample at once (and, in each sweep, every tile's
- * input points), so it gives the same samples whatever the tiling. */
+/* flat.c - the flat sample set (flat.h): every tile's samples in one
+ * array in global-index order. */
 #include "resample/flat.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "wpd/eliminate.h"
 
 void wpd_flat_free(wpd_flat *f)
 {
@@ -87,82 +85,5 @@ int wpd_flat_from_store(const wpd_run *run, wpd_flat *f)
     }
     free(next);
     free(h);
-    return rc;
-}
-
-int wpd_flat_to_store(wpd_run *run, const wpd_flat *f, const uint32_t *idx, size_t m)
-{
-    wpd_run_store_clear(run);
-    size_t *count = calloc((size_t)run->plan.ntiles, sizeof *count);
-    if (!count)
-        return -1;
-    for (size_t i = 0; i < m; i++)
-        count[f->tile[idx[i]]]++;
-    int rc = 0;
-    for (int t = 0; t < run->plan.ntiles; t++)
-        if (wpd_samples_alloc(&run->store[t], count[t], f->edge != NULL))
-            rc = -1;
-    for (size_t i = 0; i < m && rc == 0; i++) {
-        wpd_tile_samples *s = &run->store[f->tile[idx[i]]];
-        s->gid[s->n] = f->gid[idx[i]];
-        memcpy(s->xyz + 3 * s->n, f->xyz + 3 * (size_t)idx[i], 3 * sizeof *s->xyz);
-        if (f->edge)
-            s->edge[s->n] = f->edge[idx[i]];
-        s->n++;
-    }
-    free(count);
-    return rc;
-}
-
-/* The flat set with the store freed (the memory peak is here) and room for
- * an index list; on failure err is set. */
-static int take_flat(wpd_run *run, wpd_flat *f, uint32_t **idx, const char *what,
-                     wpd_error *err)
-{
-    if (wpd_flat_from_store(run, f) || !(*idx = malloc((f->n ? f->n : 1) * sizeof **idx)))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %s of %zu samples", what, f->n);
-    wpd_run_store_clear(run);
-    return 0;
-}
-
-/* One tile's own input points into the costs of a sweep. */
-static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
-{
-    wpd_tile_data d;
-    if (wpd_tiles_read(&run->tiles, t, &d, err))
-        return -1;
-    wpd_eliminate_add_points(arg, d.xyz, d.halo, d.n, threads);
-    wpd_tiles_release(&run->tiles, &d);
-    return 0;
-}
-
-/* Coverage-aware elimination down to n (eliminate.h): every sweep hands
- * every tile's input points in once. */
-int wpd_exact_phase(wpd_run *run, wpd_error *err)
-{
-    wpd_flat f = {0};
-    uint32_t *idx = NULL;
-    wpd_eliminate e = {0};
-    int rc = -1;
-    if (take_flat(run, &f, &idx, "the exact count", err) ||
-        wpd_eliminate_init(&e, f.xyz, f.edge, f.n, run->res->radius, run->threads, err))
-        goto done;
-    while (e.live > run->opt->target) {
-        if (wpd_eliminate_begin(&e, err) ||
-            wpd_run_tiles_any_order(run, NULL, cost_tile, &e, err) ||
-            wpd_eliminate_sweep(&e, run->opt->target, err) < 0)
-            goto done;
-        run->res->exact_sweeps++;
-    }
-    size_t kept = wpd_eliminate_result(&e, idx);
-    if (wpd_flat_to_store(run, &f, idx, kept)) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
-        goto done;
-    }
-    rc = 0;
-done:
-    wpd_eliminate_free(&e);
-    wpd_flat_free(&f);
-    free(idx);
     return rc;
 }

@@ -1,7 +1,7 @@
 /* flat.h - all samples of a run as flat arrays in global-index order: the
  * order an in-memory run has always held them in, so that ties (equal
- * distances, common on quantised coordinates) break alike in the pruning
- * and the exact count, whatever the tiling (internal to src/resample/). */
+ * distances, common on quantised coordinates) break alike whatever the
+ * tiling (internal to src/resample/). */
 #ifndef WPD_FLAT_H
 #define WPD_FLAT_H
 
@@ -18,8 +18,6 @@ typedef struct wpd_flat {
 /* The store as one flat set. Returns 0 or -1 (out of memory; f stays valid
  * for wpd_flat_free). */
 int wpd_flat_from_store(const wpd_run *run, wpd_flat *f);
-/* Replaces the store by the samples idx[0..m-1] (ascending) of f. */
-int wpd_flat_to_store(wpd_run *run, const wpd_flat *f, const uint32_t *idx, size_t m);
 void wpd_flat_free(wpd_flat *f);
 
 #endif

@@ -62,6 +62,18 @@ static inline double wpd_tile_distance(const wpd_tile *t, const double p[3])
     return sqrt(wpd_tile_distance2(t, p));
 }
 
+/* Distance between the boxes of tiles a and b (0 when they touch). */
+static inline double wpd_tile_gap(const wpd_tile *a, const wpd_tile *b)
+{
+    double d2 = 0;
+    for (int k = 0; k < 3; k++) {
+        double d = a->box_lo[k] > b->box_hi[k] ? a->box_lo[k] - b->box_hi[k]
+                   : b->box_lo[k] > a->box_hi[k] ? b->box_lo[k] - a->box_hi[k] : 0;
+        d2 += d * d;
+    }
+    return sqrt(d2);
+}
+
 void wpd_plan_free(wpd_plan *p);
 
 #endif

@@ -65,6 +65,7 @@ typedef struct wpd_resample_result {
     size_t first_pass_count, poisson_count;
     int passes;               /* Poisson passes over the input */
     int exact_sweeps;         /* sweeps of the exact count, each reading every tile */
+    int exact_rounds;         /* rounds of its tiles' decisions, over all sweeps */
     int resolution_rounds;    /* tile rounds re-run for points a tile's view could not
                                  decide (a chain of decisions past the halo) */
     int resolution_tiles;     /* tiles those rounds re-ran */

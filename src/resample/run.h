@@ -85,7 +85,7 @@ int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, voi
 int wpd_tile_pass(wpd_run *run, wpd_error *err);                 /* tile.c */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err);             /* poisson_pass.c */
 int wpd_take_all_phase(wpd_run *run, wpd_error *err);            /* poisson_pass.c */
-int wpd_exact_phase(wpd_run *run, wpd_error *err);               /* flat.c */
+int wpd_exact_phase(wpd_run *run, wpd_error *err);               /* exact_pass.c */
 int wpd_smooth_phase(wpd_run *run, wpd_error *err);              /* smooth_pass.c */
 int wpd_merge_phase(wpd_run *run, wpd_error *err);               /* merge.c */
 

@@ -33,13 +33,14 @@ static void atomic_max(uint64_t *p, uint64_t v)
 }
 
 int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, const uint8_t *half, size_t n,
-                       double spacing, int threads, wpd_error *err)
+                       double spacing, double reach, int threads, wpd_error *err)
 {
     memset(e, 0, sizeof *e);
     e->n = e->live = n;
     e->xyz = xyz;
     e->half = half;
     e->spacing = spacing > 0 ? spacing : 1.0;
+    e->reach = reach > 0 ? reach : INFINITY;
     e->threads = threads > 0 ? threads : omp_get_max_threads();
     size_t m = n ? n : 1;
     e->alive = malloc(m);
@@ -233,7 +234,7 @@ static int two_of_gathered(gathered *near, const wpd_grid *g, const double *p, d
 /* The nearest and second-nearest sample of p by (squared distance, index),
  * as wpd_knn gives them: from the gathered cells when the second lies
  * within their margin around p (then no other sample can be nearer), else
- * from a full search. Returns 1 when both exist. */
+ * from a full search. Returns how many exist (at most 2). */
 static int two_nearest(const wpd_grid *g, gathered *near, int have, const int64_t c[3],
                        const double *p, double hint, uint32_t idx[2], double d2[2])
 {
@@ -243,28 +244,31 @@ static int two_nearest(const wpd_grid *g, gathered *near, int have, const int64_
         uint32_t i[2];
         if (m > 0 && two_of_gathered(near, g, p, b, i) == 2 && b[1] <= m * m) {
             idx[0] = i[0], idx[1] = i[1], d2[0] = b[0], d2[1] = b[1];
-            return 1;
+            return 2;
         }
     }
-    return wpd_knn(g, p, 2, WPD_NO_SELF, INFINITY, hint, idx, d2) == 2;
+    return wpd_knn(g, p, 2, WPD_NO_SELF, INFINITY, hint, idx, d2);
 }
 
-/* The cost of point p's nearest sample, from its second-nearest. near:
- * the samples around p's cell c, when have. */
+/* The cost of point p's nearest sample, from its second-nearest, both
+ * within the reach (eliminate.h). near: the samples around p's cell c,
+ * when have. */
 static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[3],
                     const double *p)
 {
     uint32_t idx[2];
     double d2[2];
-    if (two_nearest(&e->grid, near, have, c, p, 1.5 * e->spacing, idx, d2))
-        atomic_max(&e->cost[idx[0]], bits_of(d2[1]));
+    double reach2 = e->reach * e->reach;
+    int got = two_nearest(&e->grid, near, have, c, p, 1.5 * e->spacing, idx, d2);
+    if (got >= 1 && d2[0] <= reach2)
+        atomic_max(&e->cost[idx[0]], bits_of(got == 2 && d2[1] < reach2 ? d2[1] : reach2));
 }
 
 void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t *skip,
                               size_t npts, int threads)
 {
-    if (e->live < 2)
-        return; /* nothing to delete: no second-nearest sample */
+    if (e->live == 0)
+        return;
     size_t nblocks = (npts + QUERY_BLOCK - 1) / QUERY_BLOCK;
     /* Queries of one cell share the samples around it (gathered once): the
      * per-query column look-ups were most of the time. Without memory for
@@ -302,13 +306,21 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
     }
 }
 
+double wpd_eliminate_nearest(const wpd_eliminate *e, uint32_t s)
+{
+    uint32_t idx[1];
+    double d2[1];
+    int got = wpd_knn(&e->grid, e->xyz + 3 * (size_t)s, 1, s, e->reach, 1.5 * e->spacing, idx,
+                      d2);
+    return got ? sqrt(d2[0]) : e->reach;
+}
+
 /* The squared cost, relative to the sample's own radius (a sample of
  * radius r/2 costs 4 times its squared hole): which samples a sweep may
  * take (the candidates below). */
 static double cost_of(const wpd_eliminate *e, uint32_t s)
 {
-    double c = double_of(e->cost[s]);
-    return e->half && e->half[s] ? 4 * c : c;
+    return wpd_eliminate_cost_of(e->cost[s], e->half && e->half[s]);
 }
 
 /* The order of deletion among the candidates: cost_of times the sample's
@@ -432,13 +444,10 @@ static double kth_smallest(double *a, size_t m, size_t k)
  * Returns 0. */
 static int crowding(const wpd_eliminate *e, double *crowd, double *tmp)
 {
-    double r = e->spacing;
 #pragma omp parallel for num_threads(e->threads) schedule(dynamic, 1024)
     for (size_t i = 0; i < e->live; i++) {
-        uint32_t s = e->live_idx[i], idx[1];
-        double d2[1];
-        int got = wpd_knn(&e->grid, e->xyz + 3 * (size_t)s, 1, s, INFINITY, 1.5 * r, idx, d2);
-        crowd[s] = got ? sqrt(d2[0]) : INFINITY;
+        uint32_t s = e->live_idx[i];
+        crowd[s] = wpd_eliminate_nearest(e, s);
         tmp[i] = crowd[s];
     }
     if (e->live == 0)
@@ -446,8 +455,7 @@ static int crowding(const wpd_eliminate *e, double *crowd, double *tmp)
     double med = kth_smallest(tmp, e->live, e->live / 2);
     for (size_t i = 0; i < e->live; i++) {
         uint32_t s = e->live_idx[i];
-        double f = med > 0 && crowd[s] < med ? crowd[s] / med : 1;
-        crowd[s] = f * f;
+        crowd[s] = wpd_eliminate_crowd_factor(crowd[s], med);
     }
     return 0;
 }

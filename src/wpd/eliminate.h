@@ -19,6 +19,14 @@
  *      nearest live sample lies at d below the median of d), and deletes
  *      each one that has no sample deleted before it in the sweep within
  *      twice the larger of their costs, until q are deleted.
+ * Costs look no farther than the reach R (the engine's input halo, 2.5
+ * times the first radius): an input point farther than R from every sample
+ * counts for none, a second-nearest sample beyond R counts as at R, and the
+ * crowding distance below is at most R. With that, a tile that sees the
+ * input points within R of its box and the samples within 2 R computes
+ * its own samples' costs exactly as the whole cloud would (the exact count
+ * through tiles, resample/exact_pass.c); in practice no cost reaches R
+ * (the largest candidate bound on the shared scans is 2.2 r).
  * Two samples deleted in one sweep never touch each other's regions or
  * second-nearest samples (the rule of step 2), so each opens exactly the
  * hole its cost says. A sweep always deletes at least the candidate of
@@ -36,6 +44,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "common/error.h"
 #include "core/grid.h"
@@ -51,6 +60,7 @@ typedef struct wpd_eliminate {
     uint32_t *live_idx;   /* [n] indices of the live samples, ascending */
     wpd_grid grid;        /* over the live samples */
     double spacing;       /* grid cell */
+    double reach;         /* R above */
     int threads;
 } wpd_eliminate;
 
@@ -58,10 +68,31 @@ typedef struct wpd_eliminate {
  * life of e) live; half (may be NULL): samples of radius r/2 (sharp
  * features), whose holes count relative to their radius: they are ranked
  * by 4 times their squared cost, or a crowded edge line would be the first
- * to go. spacing: the sample spacing (the radius), a grid hint. Returns 0,
- * or -1 with err set (out of memory). */
+ * to go. spacing: the sample spacing (the radius), a grid hint; reach: R
+ * above (<= 0: none). Returns 0, or -1 with err set (out of memory). */
 int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, const uint8_t *half, size_t n,
-                       double spacing, int threads, wpd_error *err);
+                       double spacing, double reach, int threads, wpd_error *err);
+
+/* After wpd_eliminate_begin: the distance from live sample s to its
+ * nearest other live sample, or the reach when none lies within it. */
+double wpd_eliminate_nearest(const wpd_eliminate *e, uint32_t s);
+
+/* A squared cost (bits of a double) as the sweep ranks it: 4 times for a
+ * sample of radius r/2. */
+static inline double wpd_eliminate_cost_of(uint64_t cost_bits, int half)
+{
+    double c;
+    memcpy(&c, &cost_bits, sizeof c);
+    return half ? 4 * c : c;
+}
+
+/* The crowding factor of a sample whose nearest live sample lies at nn,
+ * when the median of that distance over the live samples is median. */
+static inline double wpd_eliminate_crowd_factor(double nn, double median)
+{
+    double f = median > 0 && nn < median ? nn / median : 1;
+    return f * f;
+}
 
 /* Opens a sweep: indexes the live samples and zeroes their costs.
  * Returns 0, or -1 with err set. */

@@ -75,7 +75,7 @@ static uint8_t *eliminate(const double *s, size_t m, const double *xyz, size_t n
     wpd_eliminate e;
     wpd_error err = {0};
     uint8_t *alive = NULL;
-    if (wpd_eliminate_init(&e, s, NULL, m, r, threads, &err))
+    if (wpd_eliminate_init(&e, s, NULL, m, r, 0, threads, &err))
         return NULL;
     *sweeps = 0;
     while (e.live > target) {
@@ -131,7 +131,7 @@ TEST(eliminate_costs_are_the_holes_the_definition_gives)
     }
     wpd_eliminate e;
     wpd_error err = {0};
-    CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.2, 2, &err) == 0);
+    CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.2, 0, 2, &err) == 0);
     CHECK(wpd_eliminate_begin(&e, &err) == 0);
     wpd_eliminate_add_points(&e, xyz, NULL, n, 2);
     double *want = costs_by_brute_force(xyz, n, s, m);
@@ -177,7 +177,7 @@ TEST(eliminate_costs_are_exact_with_ties_and_many_blocks)
     for (int threads = 1; threads <= 2; threads++) {
         wpd_eliminate e;
         wpd_error err = {0};
-        CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, threads, &err) == 0);
+        CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, 0, threads, &err) == 0);
         CHECK(wpd_eliminate_begin(&e, &err) == 0);
         wpd_eliminate_add_points(&e, xyz, NULL, n, threads);
         size_t wrong = 0;
@@ -200,7 +200,7 @@ TEST(eliminate_deletions_of_one_sweep_stay_apart)
     double *s = poisson_samples(xyz, gid, n, 1.0, &m);
     wpd_eliminate e;
     wpd_error err = {0};
-    CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, 1, &err) == 0);
+    CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, 0, 1, &err) == 0);
     CHECK(wpd_eliminate_begin(&e, &err) == 0);
     wpd_eliminate_add_points(&e, xyz, NULL, n, 1);
     uint64_t *cost = malloc(m * sizeof *cost);
