@@ -151,9 +151,10 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     res->tiles = run->plan.ntiles;
     res->colours = run->plan.ncolours;
     res->largest_tile = run->plan.largest;
-    if (copy_tile_boxes(run) || !(run->store = calloc((size_t)run->plan.ntiles,
-                                                      sizeof *run->store)))
+    if (copy_tile_boxes(run))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    if (wpd_store_open(run, err))
+        return -1;
     res->time.plan = omp_get_wtime() - t;
     return 0;
 }
@@ -275,8 +276,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     if (check_budget(&run, err))
         return -1;
     int rc = run_phases(&run, err);
-    wpd_run_store_clear(&run);
-    free(run.store);
+    wpd_store_close(&run);
     wpd_grid_free(&run.surface);
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);

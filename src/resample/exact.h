@@ -30,10 +30,14 @@ enum { EXACT_UNDECIDED = 0, EXACT_TAKEN = 1, EXACT_SPARED = 2 };
 
 /* One tile's part of a sweep. */
 typedef struct exact_tile {
+    size_t n;         /* its samples */
     uint64_t *cost;   /* [n] squared cost bits (eliminate.h) of its samples */
     double *nn;       /* [n] their crowding distances */
+    uint8_t *half;    /* [n] 1: a sample of radius r/2 (sharp label), or NULL */
     size_t ncand;
     uint32_t *cand;   /* [ncand] sample indices of its candidates, ascending */
+    uint64_t *cgid;   /* [ncand] their global indices */
+    double *cxyz;     /* [3 ncand] their coordinates */
     uint64_t *rank;   /* [ncand] their rank bits */
     uint8_t *state;   /* [ncand] decisions so far (fixed during a round) */
     uint8_t *next;    /* [ncand] this round's decisions */
@@ -46,6 +50,8 @@ typedef struct exact_sweep {
     double reach;       /* R */
     double conflict;    /* the largest conflict distance of two candidates */
     int labelled;       /* samples carry sharp labels */
+    uint64_t tau;       /* the candidate bound (bits of a cost_of) */
+    double median;      /* the median crowding distance */
 } exact_sweep;
 
 /* Step 3 for tile t (a wpd_tile_fn, arg: the exact_sweep): decides what

@@ -68,13 +68,11 @@ static int view_alloc(view *v, size_t cap)
  * for u == t) into v, or only counted when v->xyz is NULL. */
 static size_t add_tile(const exact_sweep *sw, int t, int u, double reach, view *v)
 {
-    const wpd_run *run = sw->run;
-    const wpd_tile *tile = &run->plan.tiles[t];
-    const wpd_tile_samples *s = &run->store[u];
+    const wpd_tile *tile = &sw->run->plan.tiles[t];
     const exact_tile *x = &sw->tile[u];
     size_t added = 0;
     for (size_t c = 0; c < x->ncand; c++) {
-        const double *p = s->xyz + 3 * (size_t)x->cand[c];
+        const double *p = x->cxyz + 3 * c;
         double d = u == t ? 0 : wpd_tile_distance(tile, p);
         if (d > reach)
             continue;
@@ -85,7 +83,7 @@ static size_t add_tile(const exact_sweep *sw, int t, int u, double reach, view *
         memcpy(v->xyz + 3 * i, p, 3 * sizeof *p);
         uint64_t bits = x->cost[x->cand[c]];
         memcpy(&v->cost[i], &bits, sizeof bits);
-        v->gid[i] = s->gid[x->cand[c]];
+        v->gid[i] = x->cgid[c];
         v->rank[i] = x->rank[c];
         v->state[i] = x->state[c];
         v->blind[i] = d > sw->conflict;

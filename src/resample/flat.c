@@ -38,15 +38,6 @@ static void sift_down(head *h, size_t n, size_t i)
     }
 }
 
-/* Whether the samples carry sharp labels (not when every point was kept). */
-static int labelled(const wpd_run *run)
-{
-    for (int t = 0; t < run->plan.ntiles; t++)
-        if (run->store[t].edge)
-            return 1;
-    return 0;
-}
-
 /* Each tile's samples ascend by gid: a merge of the tiles gives the flat
  * set in gid order with one heap entry per tile, not a sort with its index
  * arrays (24 bytes a sample at the run's memory peak). */
@@ -54,7 +45,7 @@ int wpd_flat_from_store(const wpd_run *run, wpd_flat *f)
 {
     int ntiles = run->plan.ntiles;
     size_t n = f->n = wpd_run_store_count(run), m = n ? n : 1;
-    int with_edge = labelled(run);
+    int with_edge = wpd_store_labelled(run);
     f->gid = malloc(m * sizeof *f->gid);
     f->xyz = malloc(m * 3 * sizeof *f->xyz);
     f->edge = with_edge ? malloc(m) : NULL;

@@ -8,6 +8,9 @@ int wpd_merge_phase(wpd_run *run, wpd_error *err)
 {
     wpd_resample_result *res = run->res;
     wpd_flat f = {0};
+    for (int t = 0; t < run->plan.ntiles; t++)
+        if (wpd_store_load(run, t, err))
+            return -1;
     if (wpd_flat_from_store(run, &f)) {
         wpd_flat_free(&f);
         return wpd_fail(err, WPD_E_MEMORY, "out of memory merging %zu samples",

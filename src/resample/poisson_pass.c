@@ -74,6 +74,7 @@ typedef struct view {
     uint8_t *fixed_edge;       /* [nfixed], or NULL */
     size_t nfixed;
     uint32_t *kept, *unknown;  /* outputs, room for ncand */
+    wpd_tile_samples *near;    /* [ntiles] each neighbour's samples within the halo */
 } view;
 
 static void view_free(const wpd_run *run, view *v)
@@ -88,6 +89,30 @@ static void view_free(const wpd_run *run, view *v)
     free(v->fixed_edge);
     free(v->kept);
     free(v->unknown);
+    for (int t = 0; v->near && t < run->plan.ntiles; t++)
+        wpd_samples_free(&v->near[t]);
+    free(v->near);
+}
+
+/* The samples of home that t's view may hold: t's own (held while t
+ * runs), or a neighbour's within the halo. */
+static const wpd_tile_samples *samples_of(const wpd_run *run, const view *v, int t, int home)
+{
+    return home == t ? &run->store[t] : &v->near[home];
+}
+
+/* Every neighbour's samples within the halo of t's box into v->near. */
+static int load_near(const wpd_run *run, int t, view *v, wpd_error *err)
+{
+    const wpd_tile *tile = &run->plan.tiles[t];
+    if (!(v->near = calloc((size_t)run->plan.ntiles, sizeof *v->near)))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    for (int j = 0; j < tile->nadj; j++) {
+        int u = tile->adj[j];
+        if (wpd_store_count(run, u) && wpd_store_near(run, t, u, run->halo, &v->near[u], err))
+            return -1;
+    }
+    return 0;
 }
 
 /* Index of gid among s's samples (ascending), or -1. */
@@ -145,15 +170,16 @@ static int home_of(const wpd_run *run, int t, const wpd_tile_data *d, size_t i)
 
 /* Point i of tile t's view (asked in ascending i): fixed, dropped or
  * candidate. */
-static uint8_t classify(const wpd_run *run, const pass_ctx *pc, int t, const wpd_tile_data *d,
-                        size_t i, cursors *at)
+static uint8_t classify(const wpd_run *run, const pass_ctx *pc, int t, const view *v, size_t i,
+                        cursors *at)
 {
+    const wpd_tile_data *d = &v->d;
     int home = home_of(run, t, d, i), own = home == t;
     if (!own && !pc->processed[home]) /* a later colour of round 1: undecided */
         return CANDIDATE;
     if (own && pc->round == 0)
         return CANDIDATE;
-    if (find_next(&run->store[home], &at->store[home], d->gid[i]) >= 0)
+    if (find_next(samples_of(run, v, t, home), &at->store[home], d->gid[i]) >= 0)
         return FIXED;
     if (find_next(&pc->unknown[home], &at->unknown[home], d->gid[i]) >= 0)
         return own ? CANDIDATE : CANDIDATE | THEIRS;
@@ -179,7 +205,7 @@ static int fill_lists(const wpd_run *run, int t, view *v, size_t ncand, size_t n
         } else if (v->cls[i] == FIXED) {
             /* The owner's label of its own sample is the true one. */
             int home = home_of(run, t, d, i);
-            const wpd_tile_samples *s = &run->store[home];
+            const wpd_tile_samples *s = samples_of(run, v, t, home);
             long k = s->edge ? find_next(s, &at[home], d->gid[i]) : -1;
             memcpy(v->fixed + 3 * v->nfixed, d->xyz + 3 * i, 3 * sizeof *v->fixed);
             if (v->fixed_edge)
@@ -195,7 +221,7 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
                       wpd_error *err)
 {
     memset(v, 0, sizeof *v);
-    if (wpd_tiles_read(&run->tiles, t, &v->d, err))
+    if (wpd_tiles_read(&run->tiles, t, &v->d, err) || load_near(run, t, v, err))
         return -1;
     size_t m = v->d.n ? v->d.n : 1;
     v->cls = malloc(m);
@@ -212,7 +238,7 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     int rc = at.store && at.unknown ? 0 : -1;
     for (size_t i = 0; rc == 0 && i < v->d.n; i++) {
         const double *x = v->d.xyz + 3 * i;
-        uint8_t c = v->cls[i] = classify(run, pc, t, &v->d, i, &at);
+        uint8_t c = v->cls[i] = classify(run, pc, t, v, i, &at);
         ncand += (c & CANDIDATE) != 0;
         nfixed += c == FIXED;
         v->theirs += (c & THEIRS) != 0;
@@ -359,13 +385,18 @@ static int cmp_handed(const void *a, const void *b)
  * to that owner: each point leaves its UNKNOWN list, and the kept ones join
  * its samples (both lists stay in gid order: one merge each). Returns 0 or
  * -1. */
-static int settle_handed(wpd_run *run, pass_ctx *pc, const handed *h, size_t m)
+static int settle_handed(wpd_run *run, pass_ctx *pc, const handed *h, size_t m,
+                         wpd_error *err)
 {
     int o = h[0].owner;
+    if (wpd_store_load(run, o, err))
+        return -1;
     wpd_tile_samples *u = &pc->unknown[o], *s = &run->store[o], grown;
     int with_edge = s->edge != NULL;
-    if (wpd_samples_alloc(&grown, s->n + m, with_edge))
-        return -1;
+    if (wpd_samples_alloc(&grown, s->n + m, with_edge)) {
+        wpd_store_drop(run, o);
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", o);
+    }
     size_t a = 0, b = 0, left = 0, k = 0;
     for (size_t i = 0; i < u->n; i++) { /* the UNKNOWN list without h's points */
         while (k < m && h[k].gid < u->gid[i])
@@ -395,7 +426,7 @@ static int settle_handed(wpd_run *run, pass_ctx *pc, const handed *h, size_t m)
     }
     wpd_samples_free(s);
     *s = grown;
-    return 0;
+    return wpd_store_save(run, o, err);
 }
 
 /* After the tiles of a colour: their certain decisions about other tiles'
@@ -427,8 +458,7 @@ static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
     for (size_t i = 0, j; rc == 0 && i < unique; i = j) {
         for (j = i; j < unique && h[j].owner == h[i].owner; j++)
             ;
-        if (settle_handed(run, pc, h + i, j - i))
-            rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", h[i].owner);
+        rc = settle_handed(run, pc, h + i, j - i, err);
     }
     free(h);
     for (int t = 0; t < run->plan.ntiles; t++)
@@ -449,6 +479,8 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
     }
     view v;
     int rc = -1;
+    if (wpd_store_load(run, t, err))
+        return -1;
     if (build_view(run, pc, t, threads, &v, err))
         goto done;
     const wpd_params *p = run->p;
@@ -474,6 +506,10 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
     rc = 0;
 done:
     view_free(run, &v);
+    if (rc)
+        wpd_store_drop(run, t);
+    else
+        rc = wpd_store_save(run, t, err);
     return rc;
 }
 
@@ -630,6 +666,10 @@ static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error 
     run->res->sharp_points += sharp;
     free(edge);
     wpd_tiles_release(&run->tiles, &d);
+    if (rc)
+        wpd_store_drop(run, t);
+    else
+        rc = wpd_store_save(run, t, err);
     return rc;
 }
 

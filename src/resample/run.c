@@ -1,4 +1,4 @@
-/* run.c - the per-tile sample store and the colour-by-colour tile loop. */
+/* run.c - the tile loops: colour by colour, or in any order. */
 #include "resample/run.h"
 
 #include <omp.h>
@@ -6,66 +6,6 @@
 #include <string.h>
 
 #include "resample/budget.h"
-
-int wpd_samples_alloc(wpd_tile_samples *s, size_t n, int with_edge)
-{
-    size_t m = n ? n : 1;
-    memset(s, 0, sizeof *s);
-    s->gid = malloc(m * sizeof *s->gid);
-    s->xyz = malloc(3 * m * sizeof *s->xyz);
-    s->edge = with_edge ? calloc(m, 1) : NULL;
-    return s->gid && s->xyz && (s->edge || !with_edge) ? 0 : -1;
-}
-
-void wpd_samples_free(wpd_tile_samples *s)
-{
-    free(s->gid);
-    free(s->xyz);
-    free(s->edge);
-    memset(s, 0, sizeof *s);
-}
-
-void wpd_run_store_clear(wpd_run *run)
-{
-    for (int t = 0; run->store && t < run->plan.ntiles; t++)
-        wpd_samples_free(&run->store[t]);
-}
-
-size_t wpd_run_store_count(const wpd_run *run)
-{
-    size_t total = 0;
-    for (int t = 0; t < run->plan.ntiles; t++)
-        total += run->store[t].n;
-    return total;
-}
-
-int wpd_run_neighbour_samples(const wpd_run *run, int t, double dist, double **out,
-                              uint8_t **edge, size_t *n)
-{
-    const wpd_tile *tile = &run->plan.tiles[t];
-    size_t cap = 0;
-    int labelled = 0;
-    for (int j = 0; j < tile->nadj; j++) {
-        cap += run->store[tile->adj[j]].n;
-        labelled |= run->store[tile->adj[j]].edge != NULL;
-    }
-    *out = malloc((cap ? cap : 1) * 3 * sizeof **out);
-    *edge = labelled ? calloc(cap ? cap : 1, 1) : NULL;
-    *n = 0;
-    if (!*out || (labelled && !*edge))
-        return -1;
-    for (int j = 0; j < tile->nadj; j++) {
-        const wpd_tile_samples *s = &run->store[tile->adj[j]];
-        for (size_t i = 0; i < s->n; i++)
-            if (wpd_tile_distance(tile, s->xyz + 3 * i) < dist) {
-                memcpy(*out + 3 * *n, s->xyz + 3 * i, 3 * sizeof **out);
-                if (s->edge)
-                    (*edge)[*n] = s->edge[i];
-                (*n)++;
-            }
-    }
-    return 0;
-}
 
 /* Every tile through fn: colour by colour when ordered (after_colour after
  * each), else all at once in one colour-blind loop. */

@@ -22,13 +22,17 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
 {
     (void)arg;
     const wpd_params *p = run->p;
-    wpd_tile_samples *s = &run->store[t];
-    if (s->n == 0)
+    if (wpd_store_count(run, t) == 0)
         return 0;
     double r = run->res->radius;
     wpd_tile_data d;
-    if (wpd_tiles_read(&run->tiles, t, &d, err))
+    if (wpd_store_load(run, t, err))
         return -1;
+    wpd_tile_samples *s = &run->store[t];
+    if (wpd_tiles_read(&run->tiles, t, &d, err)) {
+        wpd_store_drop(run, t);
+        return -1;
+    }
     wpd_grid own = {0}, *surface = run->surface.n ? &run->surface : &own;
     double *ctx = NULL;
     uint8_t *ctx_edge = NULL;
@@ -37,10 +41,8 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     if (p->keep_on_surface && surface == &own &&
         wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
         goto done;
-    if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx)) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err))
         goto done;
-    }
     wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, ctx_edge, nctx,
                            p->keep_on_surface ? surface : NULL, run->surface_dk,
                            (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations, r, threads,
@@ -64,6 +66,10 @@ done:
     free(ctx);
     free(ctx_edge);
     wpd_tiles_release(&run->tiles, &d);
+    if (rc)
+        wpd_store_drop(run, t);
+    else
+        rc = wpd_store_save(run, t, err);
     return rc;
 }
 
