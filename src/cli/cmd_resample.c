@@ -653,11 +653,14 @@ done:
 }
 
 /* Removes what runs killed outright (SIGKILL, power loss) left behind:
- * their spill directories and temporary outputs. Live runs' are kept. */
+ * their spill and run directories and temporary outputs. Live runs' are
+ * kept. */
 static void sweep_leftovers(const resample_options *o)
 {
     char dir[1024];
-    wpd_tmpdir_sweep_stale(spill_dir(o, dir, sizeof dir), "wpd-spill");
+    const char *base = spill_dir(o, dir, sizeof dir);
+    wpd_tmpdir_sweep_stale(base, "wpd-spill");
+    wpd_tmpdir_sweep_stale(base, "wpd-runs");
     if (o->output)
         wpd_outfile_sweep_stale(o->output);
 }
