@@ -375,7 +375,7 @@ static int measure(char *const *inputs, int ninputs, const wpd_selection *sel,
     wpd_metrics m;
     if (wpd_metrics_load_many((const char *const *)inputs, ninputs, &orig, &n_orig, NULL, err))
         return -1;
-    int rc = wpd_metrics_compute(orig, n_orig, sel->xyz, sel->n, o->params.threads, &m, err);
+    int rc = wpd_metrics_compute(orig, n_orig, sel->xyz_out, sel->n, o->params.threads, &m, err);
     free(orig);
     if (rc)
         return -1;
@@ -405,11 +405,8 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
                "isolated, %zu moves shortened for spacing and cover\n", o->params.iterations,
                r->open_cells, r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
     if (o->params.sharp) {
-        size_t samples = 0;
-        for (size_t i = 0; r->edge && i < r->count; i++)
-            samples += r->edge[i];
-        printf("  sharp features: %llu input points labelled, %zu output points%s\n",
-               (unsigned long long)r->sharp_points, samples,
+        printf("  sharp features: %llu input points labelled, %llu output points%s\n",
+               (unsigned long long)r->sharp_points, (unsigned long long)r->sharp_samples,
                o->edge_label ? " (field " WPD_EDGE_FIELD ")" : "");
     }
     if (r->in_memory)
@@ -425,21 +422,39 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
            o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
 }
 
+/* The records source of a plain run: its runs merged in global-index
+ * order (src: the result). */
+static int records_of_run(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
+                          wpd_progress *progress, wpd_sample_sink sink, void *arg,
+                          wpd_error *err)
+{
+    wpd_resample_result *res = src;
+    wpd_run_merge *m;
+    if (wpd_run_merge_open(res->samples, WPD_RUN_MERGE_BUDGET, &m, err))
+        return -1;
+    int rc = wpd_resample_stream_records(cloud, m, mem_bytes, threads, progress, sink, arg, err);
+    wpd_run_merge_close(m);
+    return rc;
+}
+
+/* The records source of a run by class (src: the class result). */
+static int records_by_class(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
+                            wpd_progress *progress, wpd_sample_sink sink, void *arg,
+                            wpd_error *err)
+{
+    return wpd_class_stream_records(cloud, src, mem_bytes, threads, progress, sink, arg, err);
+}
+
 /* Writes the outputs, each finished under its temporary name in files[]
  * (one per input with --per-input), reading the records once more: under
  * the classes' filter for a run by class (its global indices count the
  * points not dropped). */
-static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
-                         const wpd_class_result *classes, resample_options *o,
+static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, resample_options *o,
                          wpd_outfile *files, wpd_error *err)
 {
     wpd_selection_target target = {o->output, o->per_input, &o->write, o->mem_bytes,
                                    o->params.threads, &o->progress};
-    if (classes->ngroups)
-        wpd_cloud_set_filter(cloud, &classes->output_filter);
-    int rc = wpd_selection_write(sel, cloud, file_count, &target, files, err);
-    wpd_cloud_set_filter(cloud, NULL);
-    return rc;
+    return wpd_selection_write(sel, cloud, &target, files, err);
 }
 
 /* The outputs (files[0..nout-1]) and the report (files[nout]) of a run,
@@ -601,11 +616,17 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     rc = wpd_class_args_used(&o->classes)
              ? run_by_class(cloud, o, &ro, &res, &classes, &info, err)
              : wpd_resample_run(cloud, &ro, &res, err);
-    /* The selection borrows the result's arrays. */
-    sel = (wpd_selection){res.count, res.gid, res.xyz, res.moved, res.radius / 1000,
-                          o->edge_label ? res.edge : NULL};
-    if (rc == 0 && o->edge_label && !res.edge && res.count)
+    /* The selection borrows the result's per-file facts; its points come
+     * from the runs (or the class groups' runs) while they are written. */
+    sel = (wpd_selection){res.count, res.file_samples, res.file_bounds, res.moved,
+                          res.radius / 1000, o->edge_label,
+                          classes.ngroups ? records_by_class : records_of_run,
+                          classes.ngroups ? (void *)&classes : (void *)&res, NULL};
+    if (rc == 0 && o->edge_label && !res.labelled && res.count)
         rc = wpd_fail(err, WPD_E_USAGE, "internal error: no sharp-feature labels to write");
+    if (rc == 0 && o->metrics && !(sel.xyz_out = malloc((res.count ? res.count : 1) * 3 *
+                                                         sizeof *sel.xyz_out)))
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the metrics");
     info.dropped = wpd_cloud_dropped(cloud);
     if (rc == 0 && wpd_cloud_dropped(cloud) && !o->quiet)
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
@@ -614,7 +635,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     /* The records pass reads every input point: progress in those. */
     wpd_progress_phase(&o->progress, "write", res.input_points, "points");
     if (rc == 0)
-        rc = write_outputs(&sel, cloud, res.file_count, &classes, o, pending.files, err);
+        rc = write_outputs(&sel, cloud, o, pending.files, err);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
@@ -625,17 +646,21 @@ done:
     pending_close(&pending, o);
     wpd_resample_result_free(&res);
     wpd_class_result_free(&classes);
+    free(sel.xyz_out);
     free(metrics_json);
     wpd_cloud_close(cloud);
     return rc;
 }
 
 /* Removes what runs killed outright (SIGKILL, power loss) left behind:
- * their spill directories and temporary outputs. Live runs' are kept. */
+ * their spill and run directories and temporary outputs. Live runs' are
+ * kept. */
 static void sweep_leftovers(const resample_options *o)
 {
     char dir[1024];
-    wpd_tmpdir_sweep_stale(spill_dir(o, dir, sizeof dir), "wpd-spill");
+    const char *base = spill_dir(o, dir, sizeof dir);
+    wpd_tmpdir_sweep_stale(base, "wpd-spill");
+    wpd_tmpdir_sweep_stale(base, "wpd-runs");
     if (o->output)
         wpd_outfile_sweep_stale(o->output);
 }

@@ -32,13 +32,11 @@ static int needs_wider_coordinates(const wpd_header *out, const wpd_bounds *b, d
 /* The output's layout: the input's in the output format, coordinates
  * widened where smoothing needs it, the label field last; *label gets its
  * index (-1 without labels). */
-static int plan_output(const wpd_selection *sel, size_t first, size_t count,
-                       const wpd_header *in, const char *path, wpd_header *out,
-                       wpd_layout_map *map, int *label, wpd_error *err)
+static int plan_output(const wpd_selection *sel, const wpd_bounds *box, const wpd_header *in,
+                       const char *path, wpd_header *out, wpd_layout_map *map, int *label,
+                       wpd_error *err)
 {
-    wpd_bounds bounds;
-    wpd_bounds_reset(&bounds);
-    wpd_bounds_add(&bounds, sel->xyz + 3 * first, count);
+    wpd_bounds bounds = *box;
     wpd_format fmt = wpd_format_from_name(path);
     if (fmt == WPD_FMT_NONE)
         return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las or .ply", path);
@@ -51,7 +49,7 @@ static int plan_output(const wpd_selection *sel, size_t first, size_t count,
     }
     int replaced;
     *label = -1;
-    if (sel->edge && (*label = wpd_layout_add_label(out, WPD_EDGE_FIELD, WPD_EDGE_DESCRIPTION,
+    if (sel->labelled && (*label = wpd_layout_add_label(out, WPD_EDGE_FIELD, WPD_EDGE_DESCRIPTION,
                                                     &replaced, err)) < 0) {
         wpd_header_free(out);
         return -1;
@@ -66,7 +64,8 @@ typedef struct writing {
     const wpd_selection_target *target;
     wpd_outfile *pending;
     int nout;
-    size_t *first;            /* [nout + 1]: output k gets samples first[k]..first[k+1]-1 */
+    wpd_bounds *box;          /* [nout]: the box of output k's points */
+    size_t written;           /* points handed to the outputs so far */
     int done;                 /* outputs 0..done-1 finished */
     int open;                 /* output `done` is open */
     wpd_writer *w;
@@ -89,8 +88,8 @@ static int open_output(writing *ws, wpd_error *err)
     const char *path = ws->target->path;
     if (!path)
         path = wpd_per_input_path(ws->target->outdir, input_of(ws, k)->path, buf, sizeof buf);
-    if (plan_output(ws->sel, ws->first[k], ws->first[k + 1] - ws->first[k], input_of(ws, k),
-                    path, &ws->out, &ws->map, &ws->label, err))
+    if (plan_output(ws->sel, &ws->box[k], input_of(ws, k), path, &ws->out, &ws->map,
+                    &ws->label, err))
         return -1;
     if (!(ws->w = wpd_writer_open(path, &ws->out, ws->target->opt, err))) {
         wpd_header_free(&ws->out);
@@ -139,42 +138,44 @@ static int write_samples(void *arg, int file, const double *xyz, const uint8_t *
     wpd_layout_apply(&ws->map, &in->schema, &ws->out.schema, &src, &ws->dst);
     if (ws->label >= 0)
         wpd_layout_set_labels(&ws->out.schema.dims[ws->label], &ws->dst, edge);
+    if (ws->written + n > ws->sel->n)
+        return wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                        wpd_cloud_header(ws->cloud, 0)->path);
+    if (ws->sel->xyz_out)
+        memcpy(ws->sel->xyz_out + 3 * ws->written, xyz, 3 * n * sizeof *xyz);
+    ws->written += n;
     return wpd_writer_write(ws->w, &ws->dst, err);
 }
 
-/* The samples' range of each output: by global index, file by file. */
-static int split_outputs(writing *ws, const uint64_t *file_count, wpd_error *err)
+/* The box of each output's points: one output's is every file's. */
+static int output_boxes(writing *ws, wpd_error *err)
 {
-    ws->nout = ws->target->path ? 1 : wpd_cloud_nfiles(ws->cloud);
-    ws->first = calloc((size_t)ws->nout + 1, sizeof *ws->first);
-    if (!ws->first)
+    int nfiles = wpd_cloud_nfiles(ws->cloud);
+    ws->nout = ws->target->path ? 1 : nfiles;
+    ws->box = malloc((size_t)ws->nout * sizeof *ws->box);
+    if (!ws->box)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for %d outputs", ws->nout);
-    uint64_t file_end = 0;
-    size_t at = 0;
-    for (int k = 0; k < ws->nout; k++) {
-        file_end += ws->target->path ? UINT64_MAX / 2 : file_count[k];
-        while (at < ws->sel->n && ws->sel->gid[at] < file_end)
-            at++;
-        ws->first[k + 1] = at;
-    }
-    if (at != ws->sel->n)
-        return wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
-                        wpd_cloud_header(ws->cloud, 0)->path);
+    for (int k = 0; k < ws->nout; k++)
+        ws->box[k] = ws->sel->file_bounds[k];
+    for (int f = 1; ws->target->path && f < nfiles; f++)
+        wpd_bounds_union(&ws->box[0], &ws->sel->file_bounds[f]);
     return 0;
 }
 
-int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
+int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud,
                         const wpd_selection_target *target, wpd_outfile *pending,
                         wpd_error *err)
 {
     writing ws = {.sel = sel, .cloud = cloud, .target = target, .pending = pending};
-    int rc = split_outputs(&ws, file_count, err);
+    int rc = output_boxes(&ws, err);
     if (rc == 0)
         wpd_outfile_clear_all(pending, ws.nout);
-    wpd_sample_set set = {sel->n, sel->gid, sel->xyz, sel->edge};
     if (rc == 0)
-        rc = wpd_resample_stream_records(cloud, &set, target->mem_bytes, target->threads,
-                                         target->progress, write_samples, &ws, err);
+        rc = sel->source(sel->source_arg, cloud, target->mem_bytes, target->threads,
+                         target->progress, write_samples, &ws, err);
+    if (rc == 0 && ws.written != sel->n)
+        rc = wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                      wpd_cloud_header(cloud, 0)->path);
     if (rc == 0)
         rc = advance_to(&ws, ws.nout, err); /* the outputs after the last point */
     if (ws.open) {
@@ -182,7 +183,7 @@ int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud, const uint64
         wpd_header_free(&ws.out);
     }
     wpd_batch_free(&ws.dst);
-    free(ws.first);
+    free(ws.box);
     if (rc)
         wpd_outfile_abort_all(pending, ws.nout ? ws.nout : 1);
     else if (!target->path)
@@ -196,11 +197,4 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
     snprintf(base, sizeof base, "%s", input);
     snprintf(buf, size, "%s/%s", outdir, basename(base));
     return buf;
-}
-
-void wpd_selection_free(wpd_selection *sel)
-{
-    free(sel->gid);
-    free(sel->xyz);
-    memset(sel, 0, sizeof *sel);
 }

@@ -2,7 +2,8 @@
  * selected input points with their new coordinates, in global index order,
  * their records read once more from the inputs as they are written
  * (resample.h, wpd_resample_stream_records), to one file or split into one
- * file per input. No record is held for all points at once.
+ * file per input. No record, and no point, is held for all points at once:
+ * the per-file counts and boxes are known before.
  */
 #ifndef WPD_SELECTION_H
 #define WPD_SELECTION_H
@@ -14,16 +15,28 @@
 #include "io/cloud.h"
 #include "common/progress.h"
 #include "io/writer.h"
+#include "resample/resample.h"
+
+/* The records pass that hands the output points to sink (resample.h:
+ * wpd_resample_stream_records over a merge of a run's samples, or
+ * classes.h: wpd_class_stream_records), with its own data in src. */
+typedef int (*wpd_records_source)(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
+                                  wpd_progress *progress, wpd_sample_sink sink, void *arg,
+                                  wpd_error *err);
 
 typedef struct wpd_selection {
-    size_t n;
-    uint64_t *gid;            /* [n] ascending global indices (finite points, in
-                                 input order over all files) */
-    double *xyz;              /* [3n] absolute coordinates */
+    size_t n;                 /* output points */
+    const uint64_t *file_samples; /* [nfiles] output points per input file */
+    const wpd_bounds *file_bounds; /* [nfiles] their boxes (the layout needs them
+                                 before the first record) */
     int moved;                /* 1: coordinates changed (smoothing) */
     double precision;         /* resolution the moved coordinates need */
-    const uint8_t *edge;      /* [n] sharp-feature labels to write as the field
-                                 WPD_EDGE_FIELD, or NULL: none written */
+    int labelled;             /* 1: write the sharp-feature labels as the field
+                                 WPD_EDGE_FIELD (the source hands labels out) */
+    wpd_records_source source;
+    void *source_arg;
+    double *xyz_out;          /* [3n], or NULL: gets the coordinates written, in
+                                 output order (--metrics measures them) */
 } wpd_selection;
 
 /* The output field of the sharp-feature labels (resample --edge-label). An
@@ -42,11 +55,10 @@ typedef struct wpd_selection_target {
     wpd_progress *progress;   /* may be NULL */
 } wpd_selection_target;
 
-/* Writes sel, reading the records from cloud (as the run read it: the same
- * files, the same filter; file_count[i]: its points per file). Each output
- * has the layout wpd_layout_plan gives for its input header (the first
- * file's for one output; with the field WPD_EDGE_FIELD when sel->edge is
- * set) and is finished (flushed and closed) under its temporary name,
+/* Writes sel, its points and records from sel->source reading cloud (as
+ * the run read it: the same files, the same filter). Each output has the
+ * layout wpd_layout_plan gives for its input header (the first file's for
+ * one output; with the field WPD_EDGE_FIELD when sel->labelled) and is finished (flushed and closed) under its temporary name,
  * described by pending[k] (one output: pending[0]; per input: one per
  * input file, also those that get no point, written empty). The caller
  * renames them all with wpd_outfile_rename_all once every one is complete
@@ -55,13 +67,12 @@ typedef struct wpd_selection_target {
  * the other half on its own); per input it keeps outdir's temporary
  * outputs tracked (wpd_tmpdir_track_outputs) until then. Returns 0, or -1
  * with err set and no new output left. */
-int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud, const uint64_t *file_count,
+int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud,
                         const wpd_selection_target *target, wpd_outfile *pending,
                         wpd_error *err);
 
 /* The --per-input output of input: "<outdir>/<input's file name>", in buf. */
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size);
 
-void wpd_selection_free(wpd_selection *sel);
 
 #endif

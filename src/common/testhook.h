@@ -3,7 +3,8 @@
  * With WPD_TEST_STALL=<name> in the environment, the process stops at the
  * point of that name (printing "wpd: stalled at <name>" on stderr) and waits
  * for a signal, so a test can kill it at a known moment: "tile" (the first
- * points are spilled), "write" (the temporary output exists), "per-input"
+ * points are spilled), "write" (the temporary output exists), "records" (the
+ * samples are in their runs, the records pass is about to read), "per-input"
  * (every --per-input output is complete under its temporary name, none
  * renamed yet). Without the
  * variable it costs one getenv per call. */

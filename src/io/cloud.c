@@ -305,6 +305,15 @@ void wpd_bounds_add(wpd_bounds *b, const double *xyz, size_t n)
     b->count += n;
 }
 
+void wpd_bounds_union(wpd_bounds *b, const wpd_bounds *o)
+{
+    for (int k = 0; k < 3; k++) {
+        b->min[k] = o->min[k] < b->min[k] ? o->min[k] : b->min[k];
+        b->max[k] = o->max[k] > b->max[k] ? o->max[k] : b->max[k];
+    }
+    b->count += o->count;
+}
+
 int wpd_cloud_bounds(wpd_cloud *c, wpd_bounds *out, wpd_error *err)
 {
     wpd_batch b;

@@ -127,5 +127,7 @@ int wpd_bounds_tight(const wpd_bounds *declared, const wpd_bounds *actual);
 void wpd_bounds_reset(wpd_bounds *b);
 /* Extends b by the n points of xyz (3 doubles each). */
 void wpd_bounds_add(wpd_bounds *b, const double *xyz, size_t n);
+/* Extends b by the box o (counts summed): the box of both point sets. */
+void wpd_bounds_union(wpd_bounds *b, const wpd_bounds *o);
 
 #endif

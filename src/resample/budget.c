@@ -14,9 +14,11 @@ size_t wpd_budget_sample_bytes(void)
 {
     /* store 36, exact-count scratch ~110 (flat copy 37, index 4, live flag,
      * cost and list 13, grid over the live samples ~40, a sweep's lists
-     * ~17), result (index, xyz, label) 33. No record: the records pass
-     * hands each to the writer as it reads it (records.c). */
-    return 180;
+     * ~17). No result array: the samples leave the driver as sorted runs
+     * (spill/runs.h), the tiles' own arrays in memory, files when tiled,
+     * merged in WPD_RUN_MERGE_BUDGET while written. No record: the records
+     * pass hands each to the writer as it reads it (records.c). */
+    return 147;
 }
 
 size_t wpd_budget_samples_bytes(uint64_t target)

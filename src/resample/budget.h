@@ -5,10 +5,13 @@
  *   fixed      48 MB: one thread's voxel ladder and batches, the plan, the
  *              runtime;
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
- *   samples    1.3 n x 180 bytes: the samples of a first pass that may
+ *   samples    1.3 n x 147 bytes: the samples of a first pass that may
  *              overshoot n, the flat copy and the grid the exact count
  *              works on (not their records: the records pass hands each
- *              to the writer as it reads it);
+ *              to the writer as it reads it; no output array: the samples
+ *              leave the run as sorted runs, merged within
+ *              WPD_RUN_MERGE_BUDGET while written, after the tiles are
+ *              freed);
  *   tiles      the rest, for WPD_TILES_IN_FLIGHT tiles at
  *              wpd_budget_tile_point_bytes() a point.
  * A thread beyond the first in a streaming pass runs only where the budget
@@ -36,8 +39,9 @@ enum {
  * grid. Records never enter tiles. */
 size_t wpd_budget_tile_point_bytes(void);
 
-/* Bytes per output sample (store, exact-count scratch, result: index,
- * coordinates, label; its record is never held: records.c). */
+/* Bytes per output sample (store, exact-count scratch; no result array:
+ * the runs are the store's arrays or files; its record is never held:
+ * records.c). */
 size_t wpd_budget_sample_bytes(void);
 
 /* Bytes for the samples of a run to target points (1.3 target: the first

@@ -1,7 +1,9 @@
-/* classes.c - resampling by class (classes.h): a histogram pass, one run
- * of the driver per resampled group over the cloud filtered to it, and a
- * merge pass that puts the groups' samples and the kept points back in
- * input order. */
+/* classes.c - resampling by class (classes.h): a histogram pass (points
+ * per class, and per file the count and box of each group and of the kept
+ * classes), one run of the driver per resampled group over the cloud
+ * filtered to it, and the output's facts from those; the groups' samples
+ * and the kept points meet in input order only in the records pass
+ * (class_records.c). */
 #include "resample/classes.h"
 
 #include <math.h>
@@ -32,8 +34,17 @@ wpd_class_role wpd_class_role_of(const wpd_class_options *o, long cls)
 typedef struct histogram {
     const wpd_cloud *cloud;
     const wpd_dim *field;
+    const int8_t *group_of;   /* [NCLASSES] */
+    int nfiles, nparts;       /* parts: the groups, then the kept classes */
     uint64_t *lane;           /* [lanes][NCLASSES] */
+    wpd_bounds *part;         /* [lanes][nfiles][nparts]: count and box */
 } histogram;
+
+/* The part (histogram.part) of a point of group index gi (group_of). */
+static int part_of(int gi, int ngroups)
+{
+    return gi == WPD_GROUP_KEPT ? ngroups : gi;
+}
 
 /* The class of a record of input file `file`, or -1 with err naming it. */
 static long class_checked(const wpd_cloud *c, int file, const wpd_dim *f, const uint8_t *rec,
@@ -49,14 +60,11 @@ static int pass_lanes(const wpd_resample_options *opt, size_t per_lane)
     return wpd_budget_pass_threads(opt->mem_bytes, want, 0, per_lane);
 }
 
-/* Bytes one output point takes until it is written: global index,
- * coordinates, sharp label. */
-#define OUTPUT_POINT_BYTES (sizeof(uint64_t) + 3 * sizeof(double) + 1)
-
 static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
     histogram *h = arg;
     uint64_t *count = h->lane + (size_t)pb->lane * NCLASSES;
+    wpd_bounds *part = h->part + ((size_t)pb->lane * h->nfiles + pb->file) * h->nparts;
     const wpd_batch *b = pb->batch;
     for (size_t i = 0; i < b->n; i++) {
         long cls = class_checked(h->cloud, pb->file, h->field, b->records + i * b->record_size,
@@ -64,18 +72,42 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
         if (cls < 0)
             return -1;
         count[cls]++;
+        if (h->group_of[cls] != WPD_GROUP_DROPPED)
+            wpd_bounds_add(&part[part_of(h->group_of[cls], h->nparts - 1)], b->xyz + 3 * i, 1);
     }
     return 0;
 }
 
-/* Finite points per class over the whole cloud into count[NCLASSES]. */
-static int class_histogram(wpd_cloud *cloud, const wpd_class_options *o,
-                           const wpd_resample_options *opt, uint64_t *count, wpd_error *err)
+/* Sums the lanes' parts into the first lane's. */
+static void sum_parts(histogram *h, int lanes)
 {
-    int threads = pass_lanes(opt, wpd_pass_lane_bytes(cloud) + NCLASSES * sizeof(uint64_t));
-    histogram h = {cloud, &o->field, calloc((size_t)threads * NCLASSES, sizeof(uint64_t))};
-    if (!h.lane)
+    size_t per_lane = (size_t)h->nfiles * h->nparts;
+    for (int l = 1; l < lanes; l++)
+        for (size_t k = 0; k < per_lane; k++)
+            wpd_bounds_union(&h->part[k], &h->part[l * per_lane + k]);
+}
+
+/* Finite points per class over the whole cloud into count[NCLASSES], and
+ * into *parts ([nfiles][ngroups + 1], malloc'd) the count and box of each
+ * group's and of the kept classes' points per file. */
+static int class_histogram(wpd_cloud *cloud, const wpd_class_options *o,
+                           const wpd_resample_options *opt, const int8_t *group_of,
+                           int ngroups, uint64_t *count, wpd_bounds **parts, wpd_error *err)
+{
+    int nfiles = wpd_cloud_nfiles(cloud), nparts = ngroups + 1;
+    size_t per_lane = (size_t)nfiles * nparts;
+    int threads = pass_lanes(opt, wpd_pass_lane_bytes(cloud) + NCLASSES * sizeof(uint64_t) +
+                                      per_lane * sizeof(wpd_bounds));
+    histogram h = {cloud, &o->field, group_of, nfiles, nparts,
+                   calloc((size_t)threads * NCLASSES, sizeof(uint64_t)),
+                   malloc((size_t)threads * per_lane * sizeof(wpd_bounds))};
+    *parts = h.part;
+    if (!h.lane || !h.part) {
+        free(h.lane);
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the class histogram");
+    }
+    for (size_t k = 0; k < (size_t)threads * per_lane; k++)
+        wpd_bounds_reset(&h.part[k]);
     wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &h,
                      .progress = opt->progress};
     wpd_progress_phase(opt->progress, "classes", wpd_cloud_count(cloud), "points");
@@ -84,6 +116,7 @@ static int class_histogram(wpd_cloud *cloud, const wpd_class_options *o,
     for (int l = 0; l < threads; l++)
         for (size_t k = 0; k < NCLASSES; k++)
             count[k] += h.lane[(size_t)l * NCLASSES + k];
+    sum_parts(&h, threads);
     free(h.lane);
     return rc;
 }
@@ -149,10 +182,17 @@ static int in_group(const wpd_class_options *o, const wpd_class_group *g, long c
     return g->cls >= 0 ? c == g->cls : wpd_class_role_of(o, c) == WPD_CLASS_REST;
 }
 
-/* Bytes a finished run holds until the merge. */
-static size_t held_bytes(const wpd_resample_result *r)
+void wpd_class_groups_of(const wpd_class_options *o, int8_t *group_of)
 {
-    return r->count * OUTPUT_POINT_BYTES;
+    for (long c = 0; c < NCLASSES; c++) {
+        wpd_class_role role = wpd_class_role_of(o, c);
+        group_of[c] = role == WPD_CLASS_DROP   ? WPD_GROUP_DROPPED
+                      : role == WPD_CLASS_KEEP ? WPD_GROUP_KEPT
+                                               : 0;
+        for (int i = 0; role == WPD_CLASS_COUNT && i < o->ncounts; i++)
+            if (o->counts[i].cls == c)
+                group_of[c] = (int8_t)(1 + i);
+    }
 }
 
 static void add_times(wpd_resample_timings *sum, const wpd_resample_timings *t)
@@ -162,30 +202,9 @@ static void add_times(wpd_resample_timings *sum, const wpd_resample_timings *t)
     sum->smooth += t->smooth, sum->merge += t->merge, sum->total += t->total;
 }
 
-/* Refuses, before the runs, an output that does not fit the budget twice
- * over: the groups' samples are held until the merge copies them, with the
- * kept points, into the output (both in memory until the output side is
- * out of core, issue 12). */
-static int check_output_fits(const wpd_class_result *out, const uint64_t *count,
-                             const wpd_class_options *o, size_t mem, wpd_error *err)
-{
-    uint64_t n = 0;
-    for (long c = 0; c < NCLASSES; c++)
-        n += wpd_class_role_of(o, c) == WPD_CLASS_KEEP ? count[c] : 0;
-    for (int i = 0; i < out->ngroups; i++) {
-        const wpd_class_group *g = &out->groups[i];
-        n += g->whole ? g->points : g->target;
-    }
-    double need = 2.0 * (double)n * (double)OUTPUT_POINT_BYTES;
-    if (need > (double)mem)
-        return wpd_fail(err, WPD_E_MEMORY, "memory budget too small: the %llu output points "
-                        "(kept classes included) need at least %.0f MiB (--mem)",
-                        (unsigned long long)n, need / 1048576.0);
-    return 0;
-}
-
 /* Runs the driver for group g over the cloud filtered to it, in what the
- * budget leaves beside the runs already held. */
+ * budget leaves beside the runs already held (the samples of groups
+ * resampled in memory; a tiled group's are in files). */
 static int run_group(wpd_cloud *cloud, const wpd_class_options *o,
                      const wpd_resample_options *opt, size_t held, wpd_class_group *g,
                      uint8_t *accept, wpd_error *err)
@@ -205,102 +224,12 @@ static int run_group(wpd_cloud *cloud, const wpd_class_options *o,
     return rc;
 }
 
-/* ---------------------------------------------------------------- merge */
+/* ------------------------------------------------------- the output's facts */
 
-typedef struct merger {
-    const wpd_class_options *o;
-    const wpd_cloud *cloud;
-    wpd_class_result *out;
-    int8_t *group_of;         /* [NCLASSES]: group index, -1 dropped, -2 kept */
-    uint64_t *seen;           /* [ngroups] points of each group read so far */
-    size_t *next;             /* [ngroups] the group's next sample */
-    uint64_t *out_count;      /* [NCLASSES] points written per class */
-} merger;
-
-/* Appends one point (coordinates xyz, sharp label edge) to the merged
- * result as global index gid; its record comes from the records pass. */
-static void append(wpd_resample_result *m, uint64_t gid, const double *xyz, uint8_t edge)
-{
-    size_t k = m->count++;
-    m->gid[k] = gid;
-    memcpy(m->xyz + 3 * k, xyz, 3 * sizeof *xyz);
-    if (m->edge)
-        m->edge[k] = edge;
-}
-
-/* Whether the point of group gi just read is written, and from where. */
-static void merge_point(merger *mg, int gi, uint64_t gid, const double *xyz)
-{
-    wpd_resample_result *m = &mg->out->merged;
-    if (gi == -2) {
-        append(m, gid, xyz, 0);
-        return;
-    }
-    wpd_class_group *g = &mg->out->groups[gi];
-    uint64_t local = mg->seen[gi]++;
-    if (g->whole) {
-        append(m, gid, xyz, 0);
-        return;
-    }
-    const wpd_resample_result *r = &g->run;
-    size_t s = mg->next[gi];
-    if (s < r->count && r->gid[s] == local) {
-        append(m, gid, r->xyz + 3 * s, r->edge ? r->edge[s] : 0);
-        mg->next[gi] = s + 1;
-    }
-}
-
-static int merge_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
-{
-    merger *mg = arg;
-    const wpd_batch *b = pb->batch;
-    for (size_t i = 0; i < b->n; i++) {
-        const uint8_t *rec = b->records + i * b->record_size;
-        long cls = class_checked(mg->cloud, pb->file, &mg->o->field, rec, err);
-        if (cls < 0)
-            return -1;
-        size_t before = mg->out->merged.count;
-        merge_point(mg, mg->group_of[cls], pb->first_gid + i, b->xyz + 3 * i);
-        mg->out_count[cls] += mg->out->merged.count - before;
-    }
-    return 0;
-}
-
-/* Room for every output point; the merged result's facts. */
-static int merged_alloc(wpd_class_result *out, const wpd_cloud *cloud, uint64_t kept,
-                        int with_edge, wpd_error *err)
-{
-    wpd_resample_result *m = &out->merged;
-    size_t n = (size_t)kept;
-    for (int i = 0; i < out->ngroups; i++)
-        n += out->groups[i].whole ? out->groups[i].points : out->groups[i].run.count;
-    m->record_size = wpd_cloud_header(cloud, 0)->schema.record_size;
-    m->nfiles = wpd_cloud_nfiles(cloud);
-    size_t alloc = n ? n : 1;
-    m->gid = malloc(alloc * sizeof *m->gid);
-    m->xyz = malloc(3 * alloc * sizeof *m->xyz);
-    m->edge = with_edge ? calloc(alloc, 1) : NULL;
-    m->file_count = calloc((size_t)m->nfiles, sizeof *m->file_count);
-    if (!m->gid || !m->xyz || (with_edge && !m->edge) || !m->file_count)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the %zu output points", n);
-    return 0;
-}
-
-/* The group of each class: its index, -1 dropped, -2 kept. */
-static void map_groups(const wpd_class_options *o, const wpd_class_result *out, int8_t *group_of)
-{
-    for (long c = 0; c < NCLASSES; c++) {
-        wpd_class_role role = wpd_class_role_of(o, c);
-        group_of[c] = role == WPD_CLASS_DROP ? -1 : role == WPD_CLASS_KEEP ? -2 : 0;
-        for (int i = 1; role == WPD_CLASS_COUNT && i < out->ngroups; i++)
-            if (out->groups[i].cls == c)
-                group_of[c] = (int8_t)i;
-    }
-}
-
-/* The lines of the report: every class present in the input. */
-static int class_lines(const wpd_class_options *o, const uint64_t *in, const uint64_t *outc,
-                       wpd_class_result *out, wpd_error *err)
+/* The lines of the report: every class present in the input (their
+ * output counts come from the records pass). */
+static int class_lines(const wpd_class_options *o, const uint64_t *in, wpd_class_result *out,
+                       wpd_error *err)
 {
     int n = 0;
     for (long c = 0; c < NCLASSES; c++)
@@ -310,67 +239,42 @@ static int class_lines(const wpd_class_options *o, const uint64_t *in, const uin
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     for (long c = 0; c < NCLASSES; c++)
         if (in[c])
-            out->lines[out->nlines++] = (wpd_class_line){c, wpd_class_role_of(o, c), in[c],
-                                                         outc[c]};
+            out->lines[out->nlines++] = (wpd_class_line){c, wpd_class_role_of(o, c), in[c], 0};
     return 0;
 }
 
-/* The merge pass: every point not dropped, in input order. */
-static int merge_pass(wpd_cloud *cloud, const wpd_class_options *o,
-                      const wpd_resample_options *opt, const uint64_t *count,
-                      wpd_class_result *out, wpd_error *err)
+/* Output points and their box per file: the kept classes' and the whole
+ * groups' points as the histogram saw them (parts[nfiles][ngroups + 1]),
+ * the resampled groups' samples as their runs counted them. Also the
+ * points not dropped per file (the records pass's global indices). */
+static int output_per_file(wpd_class_result *out, const wpd_bounds *parts, wpd_error *err)
 {
-    uint64_t kept = 0;
-    uint8_t *accept = out->output_accept = malloc(NCLASSES);
-    merger mg = {o, cloud, out, malloc(NCLASSES), calloc((size_t)out->ngroups, sizeof(uint64_t)),
-                 calloc((size_t)out->ngroups, sizeof(size_t)),
-                 calloc(NCLASSES, sizeof(uint64_t))};
-    int rc = -1, with_edge = 0;
-    if (!accept || !mg.group_of || !mg.seen || !mg.next || !mg.out_count) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory");
-        goto done;
+    wpd_resample_result *m = &out->merged;
+    size_t nf = (size_t)m->nfiles, alloc = nf ? nf : 1;
+    m->file_count = calloc(alloc, sizeof *m->file_count);
+    m->file_samples = calloc(alloc, sizeof *m->file_samples);
+    m->file_bounds = malloc(alloc * sizeof *m->file_bounds);
+    if (!m->file_count || !m->file_samples || !m->file_bounds)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    for (size_t f = 0; f < nf; f++) {
+        const wpd_bounds *part = parts + f * (size_t)(out->ngroups + 1);
+        wpd_bounds_reset(&m->file_bounds[f]);
+        for (int i = 0; i <= out->ngroups; i++) {
+            const wpd_class_group *g = i < out->ngroups ? &out->groups[i] : NULL;
+            m->file_count[f] += part[i].count;
+            if (!g || g->whole)
+                wpd_bounds_union(&m->file_bounds[f], &part[i]);
+            else if (g->run.file_samples)
+                wpd_bounds_union(&m->file_bounds[f], &g->run.file_bounds[f]);
+        }
+        m->file_samples[f] = m->file_bounds[f].count;
+        m->count += m->file_samples[f];
     }
-    map_groups(o, out, mg.group_of);
-    for (long c = 0; c < NCLASSES; c++) {
-        accept[c] = mg.group_of[c] != -1;
-        kept += mg.group_of[c] == -2 ? count[c] : 0;
-    }
-    for (int i = 0; i < out->ngroups; i++)
-        with_edge |= out->groups[i].run.edge != NULL;
-    if (merged_alloc(out, cloud, kept, with_edge, err))
-        goto done;
-    out->output_filter = (wpd_point_filter){o->field, accept};
-    wpd_cloud_set_filter(cloud, &out->output_filter);
-    wpd_pass pass = {.cloud = cloud, .commit = merge_commit, .arg = &mg,
-                     .threads = pass_lanes(opt, wpd_pass_lane_bytes(cloud)),
-                     .progress = opt->progress};
-    wpd_progress_phase(opt->progress, "merge", wpd_cloud_count(cloud), "points");
-    rc = wpd_cloud_rewind(cloud, err) || wpd_pass_run(&pass, err) ? -1 : 0;
-    wpd_progress_end(opt->progress);
-    wpd_cloud_set_filter(cloud, NULL);
-    for (int f = 0; rc == 0 && f < out->merged.nfiles; f++)
-        out->merged.file_count[f] = wpd_cloud_delivered(cloud, f);
-    if (rc == 0)
-        rc = class_lines(o, count, mg.out_count, out, err);
-done:
-    free(mg.group_of);
-    free(mg.seen);
-    free(mg.next);
-    free(mg.out_count);
-    return rc;
-}
-
-/* Frees r's arrays, keeps its facts. */
-static void drop_arrays(wpd_resample_result *r)
-{
-    free(r->gid), free(r->xyz), free(r->edge);
-    free(r->file_count), free(r->tile_box);
-    r->gid = NULL, r->xyz = NULL, r->edge = NULL;
-    r->file_count = NULL, r->tile_box = NULL;
+    return 0;
 }
 
 /* The merged result's run facts: the first group run's (its tile boxes
- * move over), times summed. */
+ * move over), times and sharp samples summed. */
 static void merged_facts(wpd_class_result *out, const uint64_t *count)
 {
     wpd_resample_result *m = &out->merged;
@@ -382,6 +286,8 @@ static void merged_facts(wpd_class_result *out, const uint64_t *count)
         if (!out->groups[i].whole && out->groups[i].points) {
             first = first ? first : r;
             m->moved |= r->moved;
+            m->labelled |= r->labelled;
+            m->sharp_samples += r->sharp_samples;
             add_times(&m->time, &r->time);
         }
     }
@@ -400,47 +306,71 @@ static void merged_facts(wpd_class_result *out, const uint64_t *count)
     first->tile_box = NULL;
 }
 
+/* The output filter (the classes not dropped) for the records pass. */
+static int output_filter(const wpd_class_options *o, wpd_class_result *out, wpd_error *err)
+{
+    uint8_t *accept = out->output_accept = malloc(NCLASSES);
+    if (!accept)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    for (long c = 0; c < NCLASSES; c++)
+        accept[c] = out->group_of[c] != WPD_GROUP_DROPPED;
+    out->output_filter = (wpd_point_filter){o->field, accept};
+    return 0;
+}
+
+/* The groups' runs, each in what the earlier ones leave of the budget. */
+static int run_groups(wpd_cloud *cloud, const wpd_class_options *o,
+                      const wpd_resample_options *opt, wpd_class_result *out, wpd_error *err)
+{
+    uint8_t *accept = malloc(NCLASSES);
+    if (!accept)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    size_t held = 0;
+    int rc = 0;
+    for (int i = 0; rc == 0 && i < out->ngroups; i++) {
+        wpd_class_group *g = &out->groups[i];
+        if (g->whole || g->points == 0 || g->target == 0)
+            continue;
+        if ((rc = run_group(cloud, o, opt, held, g, accept, err)) == 0)
+            held += wpd_runs_memory_bytes(g->run.samples);
+    }
+    free(accept);
+    return rc;
+}
+
 int wpd_resample_by_class(wpd_cloud *cloud, const wpd_class_options *o,
                           const wpd_resample_options *opt, int quiet, wpd_class_result *out,
                           wpd_error *err)
 {
     memset(out, 0, sizeof *out);
     uint64_t *count = calloc(NCLASSES, sizeof *count);
-    uint8_t *accept = malloc(NCLASSES);
+    wpd_bounds *parts = NULL;
     int rc = -1;
     double t = omp_get_wtime();
-    if (!count || !accept) {
+    out->group_of = malloc(NCLASSES);
+    if (!count || !out->group_of) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory");
         goto done;
     }
-    if (class_histogram(cloud, o, opt, count, err) || plan_groups(o, count, quiet, out, err) ||
-        check_output_fits(out, count, o, opt->mem_bytes, err))
+    wpd_class_groups_of(o, out->group_of);
+    if (class_histogram(cloud, o, opt, out->group_of, 1 + o->ncounts, count, &parts, err) ||
+        plan_groups(o, count, quiet, out, err))
         goto done;
     if (!quiet)
         notice_absent(o, count);
     out->histogram_seconds = omp_get_wtime() - t;
-    size_t held = 0;
-    for (int i = 0; i < out->ngroups; i++) {
-        wpd_class_group *g = &out->groups[i];
-        if (g->whole || g->points == 0 || g->target == 0)
-            continue;
-        if (run_group(cloud, o, opt, held, g, accept, err))
-            goto done;
-        held += held_bytes(&g->run);
-    }
-    t = omp_get_wtime();
-    if (merge_pass(cloud, o, opt, count, out, err))
+    out->merged.record_size = wpd_cloud_header(cloud, 0)->schema.record_size;
+    out->merged.nfiles = wpd_cloud_nfiles(cloud);
+    if (run_groups(cloud, o, opt, out, err) || output_per_file(out, parts, err) ||
+        class_lines(o, count, out, err) || output_filter(o, out, err))
         goto done;
-    out->merge_seconds = omp_get_wtime() - t;
     merged_facts(out, count);
-    for (int i = 0; i < out->ngroups; i++) /* merged: only the facts are needed */
-        drop_arrays(&out->groups[i].run);
     rc = out->merged.count ? 0 : wpd_fail(err, WPD_E_INPUT, "%s: no point left to write "
                                           "(every class dropped or counted to 0)",
                                           wpd_cloud_header(cloud, 0)->path);
 done:
     free(count);
-    free(accept);
+    free(parts);
     if (rc)
         wpd_class_result_free(out);
     return rc;
@@ -454,5 +384,6 @@ void wpd_class_result_free(wpd_class_result *r)
     free(r->groups);
     free(r->lines);
     free(r->output_accept);
+    free(r->group_of);
     memset(r, 0, sizeof *r);
 }

@@ -10,9 +10,14 @@
  * cloud filtered to that group: its samples are exactly those of a run over
  * a file holding only its points, whatever the other classes (groups do not
  * constrain each other). A group whose count is at or above its points is
- * kept whole. A merge pass puts every group's samples and the kept points
- * back in input order; their records come from the records pass
- * (wpd_resample_stream_records) over the cloud with output_filter set.
+ * kept whole. The output is never held: the records pass
+ * (wpd_class_stream_records) reads the cloud under output_filter and takes
+ * each point's class: a kept class's point or a whole group's is written
+ * as it is, a resampled group's point when it is that group's next sample
+ * (the group's runs merged into its own index order: the index among the
+ * group's points). The histogram pass gives, per file, the count and box of
+ * each group's and of the kept classes' points, so the output's counts and
+ * boxes per file are known before its first record.
  */
 #ifndef WPD_CLASSES_H
 #define WPD_CLASSES_H
@@ -23,6 +28,11 @@
 #include "common/error.h"
 #include "io/cloud.h"
 #include "resample/resample.h"
+
+/* The group of a class (wpd_class_result.group_of): its index, or one of
+ * these. */
+#define WPD_GROUP_DROPPED (-1)
+#define WPD_GROUP_KEPT (-2)
 
 /* A class's part in a run. */
 typedef enum wpd_class_role {
@@ -54,8 +64,8 @@ typedef struct wpd_class_group {
     long cls;                      /* the counted class, -1 for the rest */
     uint64_t points, target;       /* its input points; the count asked */
     int whole;                     /* 1: target >= points, copied untouched */
-    wpd_resample_result run;       /* its run (when not whole and points > 0); the
-                                      arrays are freed once merged */
+    wpd_resample_result run;       /* its run (when not whole and points > 0): its
+                                      samples' runs are read by the records pass */
 } wpd_class_group;
 
 /* Points in and out per class present in the input. */
@@ -66,22 +76,25 @@ typedef struct wpd_class_line {
 } wpd_class_line;
 
 typedef struct wpd_class_result {
-    wpd_resample_result merged;    /* every group's samples and the kept points, in
-                                      input order (gid: index among the points not
-                                      dropped: the cloud under output_filter); count,
-                                      gid, xyz, edge, record_size, moved,
-                                      input_points, nfiles,
-                                      file_count; the other fields from the first group
+    wpd_resample_result merged;    /* the output: count, file_samples, file_bounds
+                                      (every group's samples and the kept points per
+                                      file), record_size, moved, labelled,
+                                      sharp_samples, input_points, nfiles, file_count
+                                      (points not dropped: the cloud under
+                                      output_filter); no samples (they stay with the
+                                      groups); the other fields from the first group
                                       run, times summed over the runs */
     wpd_class_group *groups;       /* [ngroups]: the rest first, then the counts */
     int ngroups;
-    wpd_class_line *lines;         /* [nlines], by class */
+    wpd_class_line *lines;         /* [nlines], by class; out counted by the
+                                      records pass */
+    int8_t *group_of;              /* [WPD_CLASS_MAX + 1]: group index or WPD_GROUP_* */
     int nlines;
     uint64_t dropped;              /* points of dropped classes */
     wpd_point_filter output_filter; /* the classes not dropped: set it on the cloud for
                                       the records pass (valid until the result is freed) */
     uint8_t *output_accept;        /* its table (owned) */
-    double histogram_seconds, merge_seconds;
+    double histogram_seconds;
 } wpd_class_result;
 
 /* The role of class cls under o. */
@@ -98,5 +111,20 @@ int wpd_resample_by_class(wpd_cloud *cloud, const wpd_class_options *o,
                           wpd_error *err);
 
 void wpd_class_result_free(wpd_class_result *r);
+
+/* The group of every class under o into group_of[WPD_CLASS_MAX + 1]: 0
+ * the rest, 1 + i the i-th counted class, or WPD_GROUP_*. */
+void wpd_class_groups_of(const wpd_class_options *o, int8_t *group_of);
+
+/* The records pass of a run by class (wpd_resample_stream_records for
+ * r): reads cloud once under r's output filter and hands every output
+ * point (kept, whole group, or a group's sample with its coordinates and
+ * label) to sink in input order with its record, then sets the output
+ * count of r's lines. Each resampled group's runs are merged within
+ * WPD_RUN_MERGE_BUDGET / groups. Returns 0, or -1 with err set (as
+ * wpd_resample_stream_records). */
+int wpd_class_stream_records(wpd_cloud *cloud, wpd_class_result *r, size_t mem_bytes,
+                             int threads, wpd_progress *progress, wpd_sample_sink sink,
+                             void *arg, wpd_error *err);
 
 #endif

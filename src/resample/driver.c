@@ -290,9 +290,9 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
 
 void wpd_resample_result_free(wpd_resample_result *res)
 {
-    free(res->gid);
-    free(res->xyz);
-    free(res->edge);
+    wpd_runs_close(res->samples);
+    free(res->file_samples);
+    free(res->file_bounds);
     free(res->file_count);
     free(res->tile_box);
     memset(res, 0, sizeof *res);

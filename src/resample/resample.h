@@ -18,9 +18,11 @@
  *            each sweep reading every tile's input points;
  *   smooth   colour by colour: each tile's samples, its neighbours' samples
  *            as context, its input plus halo as the surface;
- *   merge    samples in global-index order, absolute coordinates;
- *   records  (wpd_resample_stream_records, after the run) the samples'
- *            records from a last streaming pass, handed to the writer.
+ *   merge    each tile's samples, in absolute coordinates, become one
+ *            sorted run (the result's samples): memory or files;
+ *   records  (wpd_resample_stream_records, after the run) the runs merged
+ *            into global-index order, with the samples' records from a
+ *            last streaming pass, handed to the writer.
  * Every step is the same code whether the cloud is one tile in memory or
  * many in the spill; the output does not depend on the number of threads.
  */
@@ -33,6 +35,8 @@
 #include "common/error.h"
 #include "common/progress.h"
 #include "io/cloud.h"
+#include "spill/run_merge.h"
+#include "spill/runs.h"
 #include "spill/spill.h"
 #include "wpd/params.h"
 
@@ -53,9 +57,15 @@ typedef struct wpd_resample_timings {
 /* What a run produced and what it did. */
 typedef struct wpd_resample_result {
     size_t count;             /* samples (n, or every point when n >= input) */
-    uint64_t *gid;            /* [count] ascending global indices */
-    double *xyz;              /* [3 count] absolute coordinates */
-    uint8_t *edge;            /* [count] sharp-feature label, or NULL without --sharp */
+    wpd_runs *samples;        /* the samples, one sorted run per tile (global index,
+                                 absolute coordinates, sharp label with --sharp):
+                                 in memory for a cloud resampled in memory, else in
+                                 files of their own (the spill is gone); read them in
+                                 global-index order through wpd_run_merge_open */
+    uint64_t *file_samples;   /* [nfiles] samples per input file */
+    wpd_bounds *file_bounds;  /* [nfiles] the box of each file's samples */
+    int labelled;             /* 1: the samples carry sharp labels (--sharp) */
+    uint64_t sharp_samples;   /* samples labelled sharp */
     uint32_t record_size;
     int moved;                /* 1: coordinates were smoothed */
     uint64_t input_points;    /* finite input points */
@@ -97,30 +107,24 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
 
 void wpd_resample_result_free(wpd_resample_result *res);
 
-/* Samples to write: ascending global indices, absolute coordinates, sharp
- * labels (or NULL). */
-typedef struct wpd_sample_set {
-    size_t count;
-    const uint64_t *gid;
-    const double *xyz;
-    const uint8_t *edge;
-} wpd_sample_set;
-
-/* Takes the next n samples in global-index order (xyz, edge: the set's
- * arrays from some offset; edge NULL when the set has none) with their
- * input records (records: n records of the cloud's record size), all from
- * input file `file`. Returns 0, or -1 with err set. */
+/* Takes the next n samples in global-index order (xyz, edge: their
+ * coordinates and labels, edge NULL when they have none) with their input
+ * records (records: n records of the cloud's record size), all from input
+ * file `file`. The arrays are valid during the call. Returns 0, or -1
+ * with err set. */
 typedef int (*wpd_sample_sink)(void *arg, int file, const double *xyz, const uint8_t *edge,
                                const uint8_t *records, size_t n, wpd_error *err);
 
 /* The records pass: reads cloud once in order (with the filter it has, the
- * one the run had) and hands set's samples to sink, batch by batch, in
+ * one the run had) and hands the samples of `samples` (a merge over a
+ * result's runs, WPD_RUN_MERGE_BUDGET bytes) to sink, batch by batch, in
  * global-index order, each with its input record; no record is held beyond
- * one batch. Reading runs on up to `threads` threads where the budget
- * mem_bytes allows. Returns 0, or -1 with err set: the sink's failure, a
- * read error, WPD_E_INPUT when the inputs no longer hold the samples (they
- * changed while being resampled). */
-int wpd_resample_stream_records(wpd_cloud *cloud, const wpd_sample_set *set, size_t mem_bytes,
+ * one batch, no sample beyond one chunk of the merge. Reading runs on up
+ * to `threads` threads where the budget mem_bytes allows. Returns 0, or -1
+ * with err set: the sink's failure, a read or run error, WPD_E_INPUT when
+ * the inputs no longer hold the samples (they changed while being
+ * resampled). */
+int wpd_resample_stream_records(wpd_cloud *cloud, wpd_run_merge *samples, size_t mem_bytes,
                                 int threads, wpd_progress *progress, wpd_sample_sink sink,
                                 void *arg, wpd_error *err);
 

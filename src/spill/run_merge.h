@@ -44,6 +44,9 @@ int wpd_run_merge_next(wpd_run_merge *m, uint64_t end, wpd_sample_view *v, wpd_e
 /* Samples not handed out yet. */
 uint64_t wpd_run_merge_left(const wpd_run_merge *m);
 
+/* Most samples one call hands out (the set's chunk). */
+size_t wpd_run_merge_chunk_points(const wpd_run_merge *m);
+
 /* Whether the samples carry labels (v->edge set). */
 int wpd_run_merge_with_edge(const wpd_run_merge *m);
 

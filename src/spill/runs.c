@@ -246,6 +246,17 @@ static int next_file_chunk(wpd_run_reader *r, wpd_run_decoder *d, wpd_sample_vie
     if (runs_file_read_chunk(rs, r->id, r->fd, c, d, r->gid, r->xyz, r->edge, err))
         return -1;
     *v = (wpd_sample_view){rs->runs[r->id].chunks[c].count, r->gid, r->xyz, r->edge};
+    /* Closed after the last chunk, and checked: storage that loses data
+     * may say so at any close (as the spill's reads do). */
+    if (r->chunk == rs->runs[r->id].nchunks) {
+        int fd = r->fd;
+        r->fd = -1;
+        if (close(fd)) {
+            char path[1100];
+            runs_file_path(rs, r->id, path, sizeof path);
+            return wpd_fail_errno(err, "%s: cannot close run file", path);
+        }
+    }
     return 0;
 }
 

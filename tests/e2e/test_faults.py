@@ -97,7 +97,8 @@ def sha256(path):
 def leftovers(*dirs):
     """Spill directories, temporary outputs and lock files in dirs."""
     return [os.path.join(d, f) for d in dirs for f in os.listdir(d)
-            if f.startswith("wpd-spill-") or ".wpd-tmp-" in f or f.endswith(".wpd-lock")]
+            if f.startswith(("wpd-spill-", "wpd-runs-")) or ".wpd-tmp-" in f
+            or f.endswith(".wpd-lock")]
 
 
 def run(args, env=None, preexec_fn=None, timeout=120):
@@ -589,6 +590,56 @@ def test_signals_before_the_per_input_renames_leave_nothing():
             assert len(leftovers("out")) == 20  # nothing could clean up
             c.run(env={"WPD_TEST_STALL": ""})
             c.check_succeeded("the run after SIGKILL")
+        else:
+            c.check_clean(sig.name)
+
+
+def test_failures_in_the_records_pass_leave_no_run_file():
+    """The samples' runs (files of their own when tiled, issue 12) exist
+    from the end of the run to the end of the records pass: a read error
+    there, a full output disk, SIGTERM and SIGINT remove them; after
+    SIGKILL the next run sweeps them."""
+    src = synth(200_000, "las")
+    extra = ["--min-tiles", 4, "--class-count", "2=2000"]
+    for classes in (False, True):
+        args = extra if classes else extra[:2]
+        c = Case(src, "out.las", 5_000, args)
+        c.run(env=preload(READ_FILE=src, READ_COUNT=os.path.abspath("read-count")))
+        assert c.p.returncode == 0 and leftovers(".", c.spill) == [], c.p.stderr
+        os.remove("out.las")
+        with open("read-count") as f:
+            total = int(f.read())
+        size = os.path.getsize(src)
+        what = "EIO half way through the records pass%s" % (" (by class)" if classes else "")
+        c = Case(src, "out.las", 5_000, args)
+        c.run(env=preload(READ_FILE=src, READ_AFTER=total - size // 2))
+        c.check_failed(what, 3, names=src, says=("Input/output error",))
+        full = FullDisk("full", 64 << 10)
+        try:
+            c = Case(src, "full/out.las", 5_000, args)
+            c.run(env=full.env)
+            c.check_failed("a full disk in the records pass", 3, names="full/out.las",
+                           says=("disk full",))
+        finally:
+            full.close()
+            shutil.rmtree("full", ignore_errors=True)
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGKILL):
+        c = Case(src, "out.las", 5_000, extra)
+        p = subprocess.Popen([WPD, *map(str, c.args)], stderr=subprocess.PIPE, text=True,
+                             env=dict(os.environ, WPD_TEST_STALL="records"))
+        line = p.stderr.readline()
+        assert "stalled at records" in line, line
+        runs = [f for f in os.listdir(c.spill) if f.startswith("wpd-runs-")]
+        assert len(runs) == 2 and all(os.listdir(os.path.join(c.spill, d)) for d in runs), runs
+        p.send_signal(sig)
+        assert p.wait(timeout=30) == -sig, (sig.name, p.returncode)
+        p.stderr.close()
+        if sig == signal.SIGKILL:
+            assert len(leftovers(c.spill)) == 2  # nothing could clean up
+            c.run(env={"WPD_TEST_STALL": ""})
+            assert c.p.returncode == 0, c.p.stderr
+            assert point_count("out.las") == 7_000  # the rest's 5 000 and class 2's 2 000
+            assert os.listdir(c.spill) == [] and leftovers(".") == [], os.listdir(c.spill)
         else:
             c.check_clean(sig.name)
 

@@ -250,7 +250,8 @@ static int run_tiled(const scan *s, size_t target, const wpd_params *p, int min_
     wpd_error err = {0};
     const char *paths[1] = {path};
     wpd_cloud *cloud = wpd_cloud_open(paths, 1, &err);
-    wpd_resample_options o = {target, (size_t)1 << 30, dir, min_tiles, *p, NULL};
+    /* The result's runs outlive the directory: they go to the test's own. */
+    wpd_resample_options o = {target, (size_t)1 << 30, test_tmp_dir(), min_tiles, *p, NULL};
     int rc = cloud ? wpd_resample_run(cloud, &o, r, &err) : -1;
     if (rc < 0)
         fprintf(stderr, "  wpd_resample_run: %s\n", err.msg);
@@ -263,6 +264,42 @@ static int run_tiled(const scan *s, size_t target, const wpd_params *p, int min_
 static int run(const scan *s, size_t target, const wpd_params *p, wpd_resample_result *r)
 {
     return run_tiled(s, target, p, 0, r);
+}
+
+/* A result's samples read back whole, in global-index order. */
+typedef struct flat_samples {
+    size_t n;
+    uint64_t *gid;
+    double *xyz;
+    uint8_t *edge;            /* or NULL */
+} flat_samples;
+
+static void flat_free(flat_samples *f)
+{
+    free(f->gid), free(f->xyz), free(f->edge);
+    memset(f, 0, sizeof *f);
+}
+
+/* r's runs merged into f (arrays of r->count samples). Returns 0 or -1. */
+static int flatten(wpd_resample_result *r, flat_samples *f)
+{
+    size_t m = r->count ? r->count : 1;
+    wpd_error err;
+    wpd_run_merge *mg = NULL;
+    *f = (flat_samples){0, malloc(m * 8), malloc(3 * m * 8), r->labelled ? malloc(m) : NULL};
+    if (!f->gid || !f->xyz || wpd_run_merge_open(r->samples, WPD_RUN_MERGE_BUDGET, &mg, &err))
+        return -1;
+    for (wpd_sample_view v;;) {
+        if (wpd_run_merge_next(mg, UINT64_MAX, &v, &err) || v.n == 0 || f->n + v.n > r->count)
+            break;
+        memcpy(f->gid + f->n, v.gid, v.n * 8);
+        memcpy(f->xyz + 3 * f->n, v.xyz, 3 * v.n * 8);
+        if (f->edge)
+            memcpy(f->edge + f->n, v.edge, v.n);
+        f->n += v.n;
+    }
+    wpd_run_merge_close(mg);
+    return f->n == r->count ? 0 : -1;
 }
 
 /* The passes stop at the first count of n or more; the multiscale
@@ -299,10 +336,13 @@ TEST(wpd_exact_count_for_any_target)
         wpd_resample_result r;
         CHECK(run(&s, targets[t], &p, &r) == 0);
         CHECK_MSG(r.count == targets[t], "target %zu: %zu samples", targets[t], r.count);
-        for (size_t i = 1; i < r.count; i++)
-            CHECK(r.gid[i - 1] < r.gid[i]);
-        for (size_t i = 0; i < r.count; i++) /* input points, unmoved without smoothing */
-            CHECK(r.gid[i] < s.n);
+        flat_samples f;
+        CHECK(flatten(&r, &f) == 0);
+        for (size_t i = 1; i < f.n; i++)
+            CHECK(f.gid[i - 1] < f.gid[i]);
+        for (size_t i = 0; i < f.n; i++) /* input points, unmoved without smoothing */
+            CHECK(f.gid[i] < s.n);
+        flat_free(&f);
         wpd_resample_result_free(&r);
     }
     /* Asking for more than there is returns every point unchanged. */
@@ -326,13 +366,17 @@ TEST(wpd_result_is_the_same_for_any_thread_count)
     CHECK(run(&s, 1500, &p, &b) == 0);
     CHECK(run(&s, 1500, &p, &c) == 0);
     CHECK(a.count == 1500 && b.count == 1500 && c.count == 1500);
-    CHECK(memcmp(a.gid, b.gid, a.count * 8) == 0);
-    CHECK(memcmp(a.xyz, b.xyz, 3 * a.count * 8) == 0);
-    CHECK(memcmp(b.xyz, c.xyz, 3 * b.count * 8) == 0);
+    flat_samples fa, fb, fc;
+    CHECK(flatten(&a, &fa) == 0 && flatten(&b, &fb) == 0 && flatten(&c, &fc) == 0);
+    CHECK(memcmp(fa.gid, fb.gid, a.count * 8) == 0);
+    CHECK(memcmp(fa.xyz, fb.xyz, 3 * a.count * 8) == 0);
+    CHECK(memcmp(fb.xyz, fc.xyz, 3 * b.count * 8) == 0);
     wpd_resample_result_free(&c);
+    flat_free(&fc);
     p.seed = 99;
-    CHECK(run(&s, 1500, &p, &c) == 0);
-    CHECK(memcmp(a.gid, c.gid, a.count * 8) != 0);
+    CHECK(run(&s, 1500, &p, &c) == 0 && flatten(&c, &fc) == 0);
+    CHECK(memcmp(fa.gid, fc.gid, a.count * 8) != 0);
+    flat_free(&fa), flat_free(&fb), flat_free(&fc);
     wpd_resample_result_free(&a);
     wpd_resample_result_free(&b);
     wpd_resample_result_free(&c);
@@ -486,8 +530,11 @@ TEST(wpd_tiles_give_the_one_block_samples)
         CHECK(run(&s, 800, &p, &one) == 0 && one.in_memory && one.count == 800);
         CHECK(run_tiled(&s, 800, &p, 4, &four) == 0 && !four.in_memory && four.tiles >= 4);
         CHECK(four.count == 800);
-        CHECK_MSG(memcmp(one.gid, four.gid, 800 * 8) == 0 &&
-                      memcmp(one.xyz, four.xyz, 3 * 800 * 8) == 0,
+        flat_samples f1, f4;
+        CHECK(flatten(&one, &f1) == 0 && flatten(&four, &f4) == 0);
+        CHECK(wpd_runs_in_files(four.samples) && !wpd_runs_in_files(one.samples));
+        CHECK_MSG(memcmp(f1.gid, f4.gid, 800 * 8) == 0 &&
+                      memcmp(f1.xyz, f4.xyz, 3 * 800 * 8) == 0,
                   "sharp %d: tiles differ from one block (first pass %zu / %zu, before the "
                   "exact count %zu / %zu, radius %.9g / %.9g)", sharp, one.first_pass_count,
                   four.first_pass_count, one.poisson_count, four.poisson_count, one.radius,
@@ -495,11 +542,12 @@ TEST(wpd_tiles_give_the_one_block_samples)
         size_t close = 0;
         for (size_t i = 0; i < four.count && !sharp; i++)
             for (size_t j = i + 1; j < four.count; j++) {
-                const double *a = four.xyz + 3 * i, *q = four.xyz + 3 * j;
+                const double *a = f4.xyz + 3 * i, *q = f4.xyz + 3 * j;
                 double dx = a[0] - q[0], dy = a[1] - q[1], dz = a[2] - q[2];
                 close += dx * dx + dy * dy + dz * dz < four.radius * four.radius * (1 - 1e-12);
             }
         CHECK_MSG(close == 0, "%zu pairs closer than r = %g", close, four.radius);
+        flat_free(&f1), flat_free(&f4);
         wpd_resample_result_free(&one);
         wpd_resample_result_free(&four);
     }
@@ -576,11 +624,14 @@ TEST(wpd_sharp_pipeline_labels_and_counts)
     p.sharp = 1;
     wpd_resample_result r;
     CHECK(run(&s, 1000, &p, &r) == 0);
-    CHECK(r.count == 1000 && r.edge != NULL && r.sharp_points > 0);
+    CHECK(r.count == 1000 && r.labelled && r.sharp_points > 0);
+    flat_samples f;
+    CHECK(flatten(&r, &f) == 0 && f.edge != NULL);
     size_t edges = 0;
-    for (size_t i = 0; i < r.count; i++)
-        edges += r.edge[i];
-    CHECK(edges > 0 && edges < r.count);
+    for (size_t i = 0; f.edge && i < f.n; i++)
+        edges += f.edge[i];
+    CHECK(edges > 0 && edges < r.count && edges == r.sharp_samples);
+    flat_free(&f);
     wpd_resample_result_free(&r);
     scan_free(&s);
 }
