@@ -661,6 +661,7 @@ static void sweep_leftovers(const resample_options *o)
     const char *base = spill_dir(o, dir, sizeof dir);
     wpd_tmpdir_sweep_stale(base, "wpd-spill");
     wpd_tmpdir_sweep_stale(base, "wpd-runs");
+    wpd_tmpdir_sweep_stale(base, "wpd-blobs");
     if (o->output)
         wpd_outfile_sweep_stale(o->output);
 }

@@ -1,37 +1,29 @@
 /* budget.c - the cost model of budget.h. */
 #include "resample/budget.h"
 
-size_t wpd_budget_tile_point_bytes(void)
+double wpd_budget_sample_fraction(uint64_t target, uint64_t points)
+{
+    double f = points ? 1.3 * (double)target / (double)points : 1;
+    return f < 1 ? f : 1;
+}
+
+size_t wpd_budget_tile_point_bytes(double sample_fraction)
 {
     /* Coordinates, index and halo flag (33), plus the larger of what the two
      * passes over a tile add: Poisson (candidate and kept lists 8, grid copy
      * and slot ids 28, priority, band, state and order 14, cells ~8) or
-     * smoothing (surface grid ~40). */
-    return 128;
+     * smoothing (surface grid ~40): 128. A sample: itself held (33), about
+     * as much again of the neighbours' borders, or in a sweep its cost
+     * fields (17), as a candidate its fields and border (~90) and its place
+     * in the views: 160. */
+    return 128 + (size_t)(160 * sample_fraction);
 }
 
-size_t wpd_budget_sample_bytes(void)
-{
-    /* store 36, exact-count scratch ~110 (flat copy 37, index 4, live flag,
-     * cost and list 13, grid over the live samples ~40, a sweep's lists
-     * ~17). No result array: the samples leave the driver as sorted runs
-     * (spill/runs.h), the tiles' own arrays in memory, files when tiled,
-     * merged in WPD_RUN_MERGE_BUDGET while written. No record: the records
-     * pass hands each to the writer as it reads it (records.c). */
-    return 147;
-}
-
-size_t wpd_budget_samples_bytes(uint64_t target)
-{
-    return (size_t)(1.3 * (double)target) * wpd_budget_sample_bytes();
-}
-
-size_t wpd_budget_min(uint64_t target)
+size_t wpd_budget_min(uint64_t target, uint64_t points)
 {
     return WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS / 4 +
-           wpd_budget_samples_bytes(target) +
            (size_t)WPD_TILES_IN_FLIGHT * WPD_BUDGET_MIN_TILE_POINTS *
-               wpd_budget_tile_point_bytes();
+               wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points));
 }
 
 size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size)
@@ -39,12 +31,12 @@ size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size)
     return (size_t)n * (record_size + 140) + ((size_t)32 << 20);
 }
 
-uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target)
+uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points)
 {
-    size_t fixed = WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS +
-                   wpd_budget_samples_bytes(target);
+    size_t fixed = WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS;
     size_t left = mem > fixed ? mem - fixed : 0;
-    uint64_t m = left / ((size_t)WPD_TILES_IN_FLIGHT * wpd_budget_tile_point_bytes());
+    size_t per = wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points));
+    uint64_t m = left / ((size_t)WPD_TILES_IN_FLIGHT * per);
     return m < WPD_BUDGET_MIN_TILE_POINTS ? WPD_BUDGET_MIN_TILE_POINTS : m;
 }
 

@@ -5,15 +5,17 @@
  *   fixed      48 MB: one thread's voxel ladder and batches, the plan, the
  *              runtime;
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
- *   samples    1.3 n x 147 bytes: the samples of a first pass that may
- *              overshoot n, the flat copy and the grid the exact count
- *              works on (not their records: the records pass hands each
- *              to the writer as it reads it; no output array: the samples
- *              leave the run as sorted runs, merged within
- *              WPD_RUN_MERGE_BUDGET while written, after the tiles are
- *              freed);
+ *   samples    nothing over all samples: a tiled run keeps them in
+ *              files (the sample store, the exact count's fields, the
+ *              result's runs: run.h, exact.h), a tile's only while it is
+ *              worked on - counted in its tile's bytes below; the records
+ *              pass merges the runs within WPD_RUN_MERGE_BUDGET after the
+ *              tiles are freed;
  *   tiles      the rest, for WPD_TILES_IN_FLIGHT tiles at
- *              wpd_budget_tile_point_bytes() a point.
+ *              wpd_budget_tile_point_bytes(f) a point, f the samples a
+ *              point may leave (1.3 n / N, at most 1).
+ * A cloud held in memory as one tile is costed apart
+ * (wpd_budget_in_memory_bytes).
  * A thread beyond the first in a streaming pass runs only where the budget
  * holds its own working set (wpd_budget_pass_threads), so peak memory does
  * not grow with --threads. Tiles are sized for a constant number in flight,
@@ -34,23 +36,20 @@ enum {
     WPD_BATCH_POINTS = 65536,      /* points a streaming pass reads at once */
 };
 
+/* The samples an input point may leave: 1.3 target / points (the first
+ * pass may overshoot), at most 1. */
+double wpd_budget_sample_fraction(uint64_t target, uint64_t points);
+
 /* Bytes a point of a tile in flight costs: coordinates, index and halo flag
- * (33) plus the larger of the Poisson scratch and the smoothing surface
- * grid. Records never enter tiles. */
-size_t wpd_budget_tile_point_bytes(void);
+ * (33), the larger of the Poisson scratch and the smoothing surface grid,
+ * and for the fraction f of a sample it may leave, that sample held while
+ * its tile is worked on with its share of the neighbours' borders and of a
+ * sweep's fields. Records never enter tiles. */
+size_t wpd_budget_tile_point_bytes(double sample_fraction);
 
-/* Bytes per output sample (store, exact-count scratch; no result array:
- * the runs are the store's arrays or files; its record is never held:
- * records.c). */
-size_t wpd_budget_sample_bytes(void);
-
-/* Bytes for the samples of a run to target points (1.3 target: the first
- * pass may overshoot). */
-size_t wpd_budget_samples_bytes(uint64_t target);
-
-/* Smallest budget a run to target samples accepts: below it the run is
- * refused before the first read. */
-size_t wpd_budget_min(uint64_t target);
+/* Smallest budget a tiled run to target samples out of points accepts:
+ * below it the run is refused before the first read. */
+size_t wpd_budget_min(uint64_t target, uint64_t points);
 
 /* Budget needed to hold a cloud of n points as one tile in memory (all
  * threads on it): measured 380 MB peak for the 2.27 M-point NC Raleigh scan
@@ -58,9 +57,9 @@ size_t wpd_budget_min(uint64_t target);
 size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size);
 
 /* Home points a tile may hold so that WPD_TILES_IN_FLIGHT of them fit
- * beside the fixed part, the spill buffers and the samples (at least
+ * beside the fixed part and the spill buffers (at least
  * WPD_BUDGET_MIN_TILE_POINTS). */
-uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target);
+uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points);
 
 /* Bytes of one batch of WPD_BATCH_POINTS points with their records. */
 size_t wpd_budget_batch_bytes(uint32_t record_size);

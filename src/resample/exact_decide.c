@@ -64,50 +64,101 @@ static int view_alloc(view *v, size_t cap)
     return v->xyz && v->cost && v->gid && v->rank && v->state && v->blind && v->own ? 0 : -1;
 }
 
-/* Tile u's candidates that lie within reach of tile t's box (all of them
- * for u == t) into v, or only counted when v->xyz is NULL. */
-static size_t add_tile(const exact_sweep *sw, int t, int u, double reach, view *v)
+/* A tile's candidates as a view reads them: its own (all of them) or
+ * another tile's border, with the states of the round. */
+typedef struct part {
+    size_t n;
+    const uint32_t *idx;      /* candidate index of each (NULL: 0..n-1) */
+    const double *xyz, *cost;
+    const uint64_t *gid, *rank;
+    const uint8_t *state;     /* by candidate index */
+    void *copy[6];            /* what to free */
+} part;
+
+static void part_free(part *p)
+{
+    for (int i = 0; i < 6; i++)
+        free(p->copy[i]);
+    memset(p, 0, sizeof *p);
+}
+
+/* Tile t's own candidates (held by the caller). */
+static void own_part(const exact_tile *x, part *p)
+{
+    *p = (part){.n = x->ncand, .xyz = x->cxyz, .cost = x->ccost, .gid = x->cgid,
+                .rank = x->rank, .state = x->state};
+}
+
+/* Tile u's border candidates and states, read-only. */
+static int border_part(const exact_sweep *sw, int u, part *p, wpd_error *err)
+{
+    static const exact_field field[6] = {EF_BIDX, EF_BXYZ, EF_BCOST, EF_BGID, EF_BRANK,
+                                         EF_STATE};
+    const void **at[6] = {(const void **)&p->idx, (const void **)&p->xyz,
+                          (const void **)&p->cost, (const void **)&p->gid,
+                          (const void **)&p->rank, (const void **)&p->state};
+    memset(p, 0, sizeof *p);
+    p->n = sw->tile[u].nborder;
+    for (int i = 0; i < 6; i++)
+        if (wpd_exact_peek(sw, u, field[i], &p->copy[i], at[i], err))
+            return -1;
+    return 0;
+}
+
+/* p's candidates within reach of tile t's box (all when own) into v, or
+ * only counted when v->xyz is NULL. */
+static size_t add_part(const exact_sweep *sw, int t, const part *p, int own, view *v)
 {
     const wpd_tile *tile = &sw->run->plan.tiles[t];
-    const exact_tile *x = &sw->tile[u];
+    double reach = 2 * sw->conflict;
     size_t added = 0;
-    for (size_t c = 0; c < x->ncand; c++) {
-        const double *p = x->cxyz + 3 * c;
-        double d = u == t ? 0 : wpd_tile_distance(tile, p);
+    for (size_t k = 0; k < p->n; k++) {
+        const double *q = p->xyz + 3 * k;
+        double d = own ? 0 : wpd_tile_distance(tile, q);
         if (d > reach)
             continue;
         added++;
         if (!v->xyz)
             continue;
-        size_t i = v->n++;
-        memcpy(v->xyz + 3 * i, p, 3 * sizeof *p);
-        uint64_t bits = x->cost[x->cand[c]];
-        memcpy(&v->cost[i], &bits, sizeof bits);
-        v->gid[i] = x->cgid[c];
-        v->rank[i] = x->rank[c];
-        v->state[i] = x->state[c];
+        size_t i = v->n++, c = p->idx ? p->idx[k] : k;
+        memcpy(v->xyz + 3 * i, q, 3 * sizeof *q);
+        v->cost[i] = p->cost[k];
+        v->gid[i] = p->gid[k];
+        v->rank[i] = p->rank[k];
+        v->state[i] = p->state[c];
         v->blind[i] = d > sw->conflict;
-        v->own[i] = u == t ? (uint32_t)c : UINT32_MAX;
+        v->own[i] = own ? (uint32_t)c : UINT32_MAX;
     }
     return added;
 }
 
-/* Every candidate within 2 D of tile t's box. */
-static int gather(const exact_sweep *sw, int t, view *v)
+/* Every candidate within 2 D of tile t's box: its own (held) and the
+ * borders of the tiles within 2 D. */
+static int gather(const exact_sweep *sw, int t, view *v, wpd_error *err)
 {
     const wpd_plan *plan = &sw->run->plan;
     double reach = 2 * sw->conflict;
+    part *parts = calloc((size_t)plan->ntiles, sizeof *parts);
+    if (!parts)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    int rc = 0;
     size_t cap = 0;
     view probe = {0};
+    for (int u = 0; rc == 0 && u < plan->ntiles; u++) {
+        if (u == t)
+            own_part(&sw->tile[t], &parts[u]);
+        else if (sw->tile[u].nborder && wpd_tile_gap(&plan->tiles[t], &plan->tiles[u]) <= reach)
+            rc = border_part(sw, u, &parts[u], err);
+        cap += add_part(sw, t, &parts[u], u == t, &probe);
+    }
+    if (rc == 0 && view_alloc(v, cap))
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count in tile %d", t);
+    for (int u = 0; rc == 0 && u < plan->ntiles; u++)
+        add_part(sw, t, &parts[u], u == t, v);
     for (int u = 0; u < plan->ntiles; u++)
-        if (u == t || wpd_tile_gap(&plan->tiles[t], &plan->tiles[u]) <= reach)
-            cap += add_tile(sw, t, u, reach, &probe);
-    if (view_alloc(v, cap))
-        return -1;
-    for (int u = 0; u < plan->ntiles; u++)
-        if (u == t || wpd_tile_gap(&plan->tiles[t], &plan->tiles[u]) <= reach)
-            add_tile(sw, t, u, reach, v);
-    return 0;
+        part_free(&parts[u]);
+    free(parts);
+    return rc;
 }
 
 /* The view's order of priority: by global index, then stably by rank. */
@@ -203,11 +254,16 @@ int wpd_exact_decide_tile(wpd_run *run, int t, int threads, void *arg, wpd_error
     wpd_grid g = {0};
     uint32_t *order = NULL;
     int rc = -1;
-    if (gather(sw, t, &v) || !(order = malloc((v.n ? v.n : 1) * sizeof *order)) ||
-        priority_order(&v, order) || permute(&v, order)) {
+    if (wpd_exact_hold(sw, t, EF_CANDS | EF(EF_STATE), err))
+        return -1;
+    if (gather(sw, t, &v, err))
+        goto done;
+    if (!(order = malloc((v.n ? v.n : 1) * sizeof *order)) || priority_order(&v, order) ||
+        permute(&v, order) || wpd_exact_alloc(sw, t, EF(EF_NEXT), err)) {
         wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count in tile %d", t);
         goto done;
     }
+    memcpy(x->next, x->state, x->ncand);
     double cell = sw->conflict > 0 ? sw->conflict : run->res->radius;
     if (wpd_grid_build(&g, v.xyz, NULL, v.n, cell, threads, err))
         goto done;
@@ -217,8 +273,9 @@ int wpd_exact_decide_tile(wpd_run *run, int t, int threads, void *arg, wpd_error
     for (size_t i = 0; i < v.n; i++)
         if (v.own[i] != UINT32_MAX && v.state[i] != UNKNOWN)
             x->next[v.own[i]] = v.state[i];
-    rc = 0;
+    rc = wpd_exact_keep(sw, t, EF(EF_NEXT), err);
 done:
+    wpd_exact_let_go(sw, t, EF_CANDS | EF(EF_STATE) | EF(EF_NEXT));
     wpd_grid_free(&g);
     free(order);
     view_free(&v);

@@ -9,6 +9,7 @@
 
 #include "core/select.h"
 #include "core/sort.h"
+#include "spill/blobs.h"
 #include "wpd/eliminate.h"
 
 static uint64_t bits_of(double v)
@@ -34,6 +35,16 @@ static int half_of(const wpd_tile_samples *s, size_t i)
 static double cost_of(const exact_tile *x, size_t i)
 {
     return wpd_eliminate_cost_of(x->cost[i], x->half && x->half[i]);
+}
+
+/* Whether p lies within band of the outside of tile's box (as the sample
+ * store's border). */
+static int near_faces(const wpd_tile *tile, const double *p, double band)
+{
+    for (int a = 0; a < 3; a++)
+        if (p[a] - tile->box_lo[a] < band || tile->box_hi[a] - p[a] < band)
+            return 1;
+    return 0;
 }
 
 /* ------------------------------------------------------------ step 1 */
@@ -139,7 +150,7 @@ static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
     wpd_eliminate e = {0};
     wpd_tile_data d;
     int rc = -1;
-    if (wpd_store_load(run, t, err))
+    if (wpd_exact_alloc(sw, t, EF_COSTS, err) || wpd_store_load(run, t, err))
         return -1;
     const wpd_tile_samples *s = &run->store[t];
     if (cost_view_build(run, t, 2 * sw->reach, sw->labelled, &v, err) ||
@@ -154,8 +165,10 @@ static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
         if (x->half)
             x->half[i] = (uint8_t)half_of(s, i);
     }
-    rc = 0;
+    rc = wpd_exact_keep(sw, t, EF_COSTS, err);
 done:
+    if (rc)
+        wpd_exact_let_go(sw, t, EF_COSTS);
     wpd_eliminate_free(&e);
     cost_view_free(&v);
     wpd_store_drop(run, t);
@@ -167,9 +180,11 @@ done:
 typedef enum { KEY_COST, KEY_NEAREST, KEY_TAKEN_RANK, KEY_TAKEN_GID } key_kind;
 
 typedef struct key_set {
-    const exact_sweep *sw;
+    exact_sweep *sw;
     key_kind kind;
     uint64_t rank;     /* KEY_TAKEN_GID: the rank the gids share */
+    wpd_error *err;    /* the first failure to read a tile's fields */
+    int failed;
 } key_set;
 
 static void count_key(uint64_t k, uint64_t mask, uint64_t prefix, int shift, uint64_t *hist)
@@ -178,92 +193,133 @@ static void count_key(uint64_t k, uint64_t mask, uint64_t prefix, int shift, uin
         hist[(k >> shift) & 0xffff]++;
 }
 
-/* wpd_select_count_fn over the keys of a key_set. */
+static const unsigned key_fields[] = {
+    [KEY_COST] = EF(EF_COST) | EF(EF_HALF),
+    [KEY_NEAREST] = EF(EF_NN),
+    [KEY_TAKEN_RANK] = EF(EF_STATE) | EF(EF_RANK),
+    [KEY_TAKEN_GID] = EF(EF_STATE) | EF(EF_RANK) | EF(EF_CGID),
+};
+
+/* One tile's keys of a key_set into hist. */
+static void count_tile(const key_set *ks, const exact_tile *x, uint64_t mask, uint64_t prefix,
+                       int shift, uint64_t *hist)
+{
+    if (ks->kind == KEY_COST)
+        for (size_t i = 0; i < x->n; i++)
+            count_key(bits_of(cost_of(x, i)), mask, prefix, shift, hist);
+    else if (ks->kind == KEY_NEAREST)
+        for (size_t i = 0; i < x->n; i++)
+            count_key(bits_of(x->nn[i]), mask, prefix, shift, hist);
+    else
+        for (size_t c = 0; c < x->ncand; c++)
+            if (x->state[c] == EXACT_TAKEN) {
+                if (ks->kind == KEY_TAKEN_RANK)
+                    count_key(x->rank[c], mask, prefix, shift, hist);
+                else if (x->rank[c] == ks->rank)
+                    count_key(x->cgid[c], mask, prefix, shift, hist);
+            }
+}
+
+/* wpd_select_count_fn over the keys of a key_set, tile by tile. */
 static void count_keys(void *arg, uint64_t mask, uint64_t prefix, int shift, uint64_t *hist)
 {
-    const key_set *ks = arg;
-    const wpd_run *run = ks->sw->run;
-    for (int t = 0; t < run->plan.ntiles; t++) {
+    key_set *ks = arg;
+    int per_sample = ks->kind == KEY_COST || ks->kind == KEY_NEAREST;
+    for (int t = 0; !ks->failed && t < ks->sw->run->plan.ntiles; t++) {
         const exact_tile *x = &ks->sw->tile[t];
-        if (ks->kind == KEY_COST)
-            for (size_t i = 0; i < x->n; i++)
-                count_key(bits_of(cost_of(x, i)), mask, prefix, shift, hist);
-        else if (ks->kind == KEY_NEAREST)
-            for (size_t i = 0; i < x->n; i++)
-                count_key(bits_of(x->nn[i]), mask, prefix, shift, hist);
-        else
-            for (size_t c = 0; c < x->ncand; c++)
-                if (x->state[c] == EXACT_TAKEN) {
-                    if (ks->kind == KEY_TAKEN_RANK)
-                        count_key(x->rank[c], mask, prefix, shift, hist);
-                    else if (x->rank[c] == ks->rank)
-                        count_key(x->cgid[c], mask, prefix, shift, hist);
-                }
+        if ((per_sample ? x->n : x->ncand) == 0)
+            continue;
+        if (wpd_exact_hold(ks->sw, t, key_fields[ks->kind], ks->err)) {
+            ks->failed = 1;
+            break;
+        }
+        count_tile(ks, x, mask, prefix, shift, hist);
+        wpd_exact_let_go(ks->sw, t, key_fields[ks->kind]);
     }
 }
 
-static uint64_t select_key(const exact_sweep *sw, key_kind kind, uint64_t rank, uint64_t k,
-                           uint64_t *below, uint64_t *hist)
+/* The key of rank k of a kind (0 with err set when a tile's fields could
+ * not be read: *failed). */
+static uint64_t select_key(exact_sweep *sw, key_kind kind, uint64_t rank, uint64_t k,
+                           uint64_t *below, uint64_t *hist, int *failed, wpd_error *err)
 {
-    key_set ks = {sw, kind, rank};
-    return wpd_select_kth(count_keys, &ks, k, below, hist);
+    key_set ks = {sw, kind, rank, err, 0};
+    uint64_t key = wpd_select_kth(count_keys, &ks, k, below, hist);
+    *failed |= ks.failed;
+    return key;
 }
 
 /* Tile t's candidates (a wpd_tile_fn): its samples whose cost_of is at
- * most the bound tau, with their global indices, coordinates and ranks. */
+ * most the bound tau, with their global indices, coordinates, raw costs
+ * and ranks, and the border: those within 2.25 D of the box's faces,
+ * all a neighbour's view can ask for (2 D; the quarter more keeps a
+ * candidate at the very distance from being lost to rounding). */
 static int pick_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
     (void)threads;
     exact_sweep *sw = arg;
     exact_tile *x = &sw->tile[t];
-    size_t m = 0;
+    if (x->n == 0 || wpd_exact_hold(sw, t, EF_COSTS, err))
+        return x->n == 0 ? 0 : -1;
     for (size_t i = 0; i < x->n; i++)
-        m += bits_of(cost_of(x, i)) <= sw->tau;
-    if (m == 0)
-        return 0;
-    x->cand = malloc(m * sizeof *x->cand);
-    x->cgid = malloc(m * sizeof *x->cgid);
-    x->cxyz = malloc(3 * m * sizeof *x->cxyz);
-    x->rank = malloc(m * sizeof *x->rank);
-    x->state = calloc(m, 1);
-    x->next = calloc(m, 1);
-    if (!x->cand || !x->cgid || !x->cxyz || !x->rank || !x->state || !x->next)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count in tile %d", t);
-    if (wpd_store_load(run, t, err))
-        return -1;
-    const wpd_tile_samples *s = &run->store[t];
-    for (size_t i = 0; i < x->n; i++) {
-        double c = cost_of(x, i);
-        if (bits_of(c) > sw->tau)
-            continue;
-        size_t k = x->ncand++;
-        x->cand[k] = (uint32_t)i;
-        x->cgid[k] = s->gid[i];
-        memcpy(x->cxyz + 3 * k, s->xyz + 3 * i, 3 * sizeof *x->cxyz);
-        x->rank[k] = bits_of(c * wpd_eliminate_crowd_factor(x->nn[i], sw->median));
+        x->ncand += bits_of(cost_of(x, i)) <= sw->tau;
+    int rc = x->ncand == 0 ? 0 : -1;
+    if (x->ncand && wpd_exact_alloc(sw, t, EF_CANDS | EF(EF_STATE) | EF(EF_NEXT), err) == 0 &&
+        wpd_store_load(run, t, err) == 0) {
+        const wpd_tile_samples *s = &run->store[t];
+        size_t k = 0;
+        for (size_t i = 0; i < x->n; i++) {
+            double c = cost_of(x, i);
+            if (bits_of(c) > sw->tau)
+                continue;
+            x->cand[k] = (uint32_t)i;
+            x->cgid[k] = s->gid[i];
+            memcpy(x->cxyz + 3 * k, s->xyz + 3 * i, 3 * sizeof *x->cxyz);
+            x->ccost[k] = double_of(x->cost[i]);
+            x->rank[k++] = bits_of(c * wpd_eliminate_crowd_factor(x->nn[i], sw->median));
+        }
+        x->undecided = x->ncand;
+        wpd_store_drop(run, t);
+        rc = 0;
     }
-    x->undecided = x->ncand;
-    wpd_store_drop(run, t);
-    return 0;
-}
-
-/* Every tile's candidates, and the sweep's largest conflict distance. */
-static int pick_candidates(exact_sweep *sw, wpd_error *err)
-{
-    wpd_run *run = sw->run;
-    if (wpd_run_tiles_any_order(run, NULL, pick_tile, sw, err))
-        return -1;
-    double top = 0;
-    for (int t = 0; t < run->plan.ntiles; t++) {
-        const exact_tile *x = &sw->tile[t];
+    const wpd_tile *tile = &run->plan.tiles[t];
+    double band = 2.25 * sw->conflict;
+    for (size_t c = 0; rc == 0 && c < x->ncand; c++)
+        x->nborder += near_faces(tile, x->cxyz + 3 * c, band);
+    if (rc == 0 && x->ncand && wpd_exact_alloc(sw, t, EF_BORDER, err) == 0) {
+        size_t b = 0;
         for (size_t c = 0; c < x->ncand; c++)
-            top = fmax(top, double_of(x->cost[x->cand[c]]));
+            if (near_faces(tile, x->cxyz + 3 * c, band)) {
+                x->bidx[b] = (uint32_t)c;
+                memcpy(x->bxyz + 3 * b, x->cxyz + 3 * c, 3 * sizeof *x->bxyz);
+                x->bgid[b] = x->cgid[c], x->bcost[b] = x->ccost[c], x->brank[b++] = x->rank[c];
+            }
+        rc = wpd_exact_keep(sw, t, EF_CANDS | EF(EF_STATE) | EF_BORDER, err);
+    } else if (rc == 0 && x->ncand) {
+        rc = -1;
     }
-    sw->conflict = 2 * sqrt(top);
-    return 0;
+    wpd_exact_let_go(sw, t, EF_COSTS | EF_CANDS | EF(EF_STATE) | EF(EF_NEXT) | EF_BORDER);
+    return rc;
 }
 
 /* ------------------------------------------------------------ step 3 */
+
+/* After a round, tile t's next becomes its state; returns the candidates
+ * still undecided, or -1 with err set. */
+static long advance(exact_sweep *sw, int t, wpd_error *err)
+{
+    exact_tile *x = &sw->tile[t];
+    if (x->undecided == 0)
+        return 0;
+    if (wpd_exact_hold(sw, t, EF(EF_STATE) | EF(EF_NEXT), err))
+        return -1;
+    memcpy(x->state, x->next, x->ncand);
+    x->undecided = 0;
+    for (size_t c = 0; c < x->ncand; c++)
+        x->undecided += x->state[c] == EXACT_UNDECIDED;
+    wpd_exact_let_go(sw, t, EF(EF_NEXT));
+    return wpd_exact_keep(sw, t, EF(EF_STATE), err) ? -1 : (long)x->undecided;
+}
 
 /* Rounds of wpd_exact_decide_tile until every candidate is decided. */
 static int decide_all(exact_sweep *sw, wpd_error *err)
@@ -273,18 +329,14 @@ static int decide_all(exact_sweep *sw, wpd_error *err)
     for (int t = 0; t < run->plan.ntiles; t++)
         left += sw->tile[t].undecided;
     while (left > 0) {
-        for (int t = 0; t < run->plan.ntiles; t++)
-            memcpy(sw->tile[t].next, sw->tile[t].state, sw->tile[t].ncand);
         if (wpd_run_tiles_any_order(run, NULL, wpd_exact_decide_tile, sw, err))
             return -1;
         size_t now = 0;
         for (int t = 0; t < run->plan.ntiles; t++) {
-            exact_tile *x = &sw->tile[t];
-            memcpy(x->state, x->next, x->ncand);
-            x->undecided = 0;
-            for (size_t c = 0; c < x->ncand; c++)
-                x->undecided += x->state[c] == EXACT_UNDECIDED;
-            now += x->undecided;
+            long u = advance(sw, t, err);
+            if (u < 0)
+                return -1;
+            now += (size_t)u;
         }
         if (now >= left)
             return wpd_fail(err, WPD_E_USAGE, "exact count: %zu candidates still undecided "
@@ -305,21 +357,12 @@ typedef struct cut {
     uint64_t rank, gid;
 } cut;
 
-/* Tile t's share of the cut (a wpd_tile_fn). */
-static int delete_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
+#define CUT_FIELDS (EF(EF_STATE) | EF(EF_RANK) | EF(EF_CGID) | EF(EF_CAND))
+
+/* Tile t's samples but those the cut deletes (del: per candidate). */
+static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t *del,
+                         wpd_error *err)
 {
-    (void)threads;
-    const cut *k = arg;
-    exact_tile *x = &k->sw->tile[t];
-    size_t gone = 0;
-    uint8_t *del = x->next; /* reused: 1 deleted, per candidate */
-    for (size_t c = 0; c < x->ncand; c++) {
-        del[c] = x->state[c] == EXACT_TAKEN &&
-                 (k->all || x->rank[c] < k->rank || (x->rank[c] == k->rank && x->cgid[c] <= k->gid));
-        gone += del[c];
-    }
-    if (gone == 0)
-        return 0;
     if (wpd_store_load(run, t, err))
         return -1;
     wpd_tile_samples *s = &run->store[t];
@@ -338,54 +381,75 @@ static int delete_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     return wpd_store_save(run, t, err);
 }
 
-static void sweep_free(exact_sweep *sw)
+/* Tile t's share of the cut (a wpd_tile_fn). */
+static int delete_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
-    for (int t = 0; sw->tile && t < sw->run->plan.ntiles; t++) {
-        exact_tile *x = &sw->tile[t];
-        free(x->cost), free(x->nn), free(x->half), free(x->cand), free(x->cgid), free(x->cxyz);
-        free(x->rank), free(x->state), free(x->next);
-        memset(x, 0, sizeof *x);
+    (void)threads;
+    const cut *k = arg;
+    exact_tile *x = &k->sw->tile[t];
+    if (x->ncand == 0)
+        return 0;
+    if (wpd_exact_hold(k->sw, t, CUT_FIELDS, err))
+        return -1;
+    uint8_t *del = malloc(x->ncand);
+    size_t gone = 0;
+    for (size_t c = 0; del && c < x->ncand; c++) {
+        del[c] = x->state[c] == EXACT_TAKEN &&
+                 (k->all || x->rank[c] < k->rank || (x->rank[c] == k->rank && x->cgid[c] <= k->gid));
+        gone += del[c];
     }
+    int rc = !del ? wpd_fail(err, WPD_E_MEMORY, "out of memory") : gone ? delete_marked(run, t, x, del, err) : 0;
+    free(del);
+    wpd_exact_let_go(k->sw, t, CUT_FIELDS);
+    return rc;
 }
 
-/* Step 1's arrays for every tile. */
-static int sweep_alloc(exact_sweep *sw)
+/* Taken candidates over all tiles, or -1 with err set. */
+static long long count_taken(exact_sweep *sw, wpd_error *err)
 {
-    const wpd_run *run = sw->run;
-    for (int t = 0; t < run->plan.ntiles; t++) {
+    long long taken = 0;
+    for (int t = 0; t < sw->run->plan.ntiles; t++) {
         exact_tile *x = &sw->tile[t];
-        size_t n = x->n = wpd_store_count(run, t), m = n ? n : 1;
-        x->cost = malloc(m * sizeof *x->cost);
-        x->nn = malloc(m * sizeof *x->nn);
-        x->half = sw->labelled ? malloc(m) : NULL;
-        if (!x->cost || !x->nn || (sw->labelled && !x->half))
+        if (x->ncand == 0)
+            continue;
+        if (wpd_exact_hold(sw, t, EF(EF_STATE), err))
             return -1;
+        for (size_t c = 0; c < x->ncand; c++)
+            taken += x->state[c] == EXACT_TAKEN;
+        wpd_exact_let_go(sw, t, EF(EF_STATE));
     }
-    return 0;
+    return taken;
 }
 
 /* One sweep from live samples towards the target. */
 static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wpd_error *err)
 {
     wpd_run *run = sw->run;
-    if (sweep_alloc(sw))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count");
+    for (int t = 0; t < run->plan.ntiles; t++)
+        sw->tile[t].n = wpd_store_count(run, t);
     if (wpd_run_tiles_any_order(run, NULL, cost_tile, sw, err))
         return -1;
     size_t quota = live - target;
     size_t bound = quota + (quota < live / 20 ? quota : live / 20);
-    sw->tau = select_key(sw, KEY_COST, 0, (bound < live ? bound : live) - 1, NULL, hist);
-    sw->median = double_of(select_key(sw, KEY_NEAREST, 0, live / 2, NULL, hist));
-    if (pick_candidates(sw, err) || decide_all(sw, err))
+    int failed = 0;
+    sw->tau = select_key(sw, KEY_COST, 0, (bound < live ? bound : live) - 1, NULL, hist, &failed,
+                         err);
+    sw->median = double_of(select_key(sw, KEY_NEAREST, 0, live / 2, NULL, hist, &failed, err));
+    /* No two candidates conflict farther apart than twice the largest raw
+     * cost's root: at most the bound's, and costs stop at the reach. */
+    sw->conflict = 2 * sqrt(fmin(double_of(sw->tau), sw->reach * sw->reach));
+    if (failed || wpd_run_tiles_any_order(run, NULL, pick_tile, sw, err) || decide_all(sw, err))
         return -1;
-    uint64_t taken = 0, below = 0;
-    for (int t = 0; t < run->plan.ntiles; t++)
-        for (size_t c = 0; c < sw->tile[t].ncand; c++)
-            taken += sw->tile[t].state[c] == EXACT_TAKEN;
-    cut k = {sw, taken <= quota, 0, 0};
+    long long taken = count_taken(sw, err);
+    if (taken < 0)
+        return -1;
+    cut k = {sw, (size_t)taken <= quota, 0, 0};
     if (!k.all) {
-        k.rank = select_key(sw, KEY_TAKEN_RANK, 0, quota - 1, &below, hist);
-        k.gid = select_key(sw, KEY_TAKEN_GID, k.rank, quota - 1 - below, NULL, hist);
+        uint64_t below = 0;
+        k.rank = select_key(sw, KEY_TAKEN_RANK, 0, quota - 1, &below, hist, &failed, err);
+        k.gid = select_key(sw, KEY_TAKEN_GID, k.rank, quota - 1 - below, NULL, hist, &failed, err);
+        if (failed)
+            return -1;
     }
     return wpd_run_tiles_any_order(run, NULL, delete_tile, &k, err);
 }
@@ -393,17 +457,23 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
 int wpd_exact_phase(wpd_run *run, wpd_error *err)
 {
     size_t target = run->opt->target, live = wpd_run_store_count(run);
+    if (live <= target)
+        return 0;
     exact_sweep sw = {.run = run, .tile = calloc((size_t)run->plan.ntiles, sizeof *sw.tile),
-                      .reach = run->halo};
+                      .reach = run->halo, .labelled = wpd_store_labelled(run)};
     uint64_t *hist = malloc(WPD_SELECT_BUCKETS * sizeof *hist);
     int rc = sw.tile && hist ? 0 : wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    sw.labelled = wpd_store_labelled(run);
+    if (rc == 0 && run->files) {
+        const char *dir = run->opt->tmpdir ? run->opt->tmpdir : ".";
+        rc = wpd_blobs_open(dir, (size_t)run->plan.ntiles * EF_COUNT, &sw.blobs, err);
+    }
     while (rc == 0 && live > target) {
         rc = sweep(&sw, live, target, hist, err);
-        sweep_free(&sw);
+        wpd_exact_free_all(&sw);
         live = wpd_run_store_count(run);
         run->res->exact_sweeps++;
     }
+    wpd_blobs_close(sw.blobs);
     free(sw.tile);
     free(hist);
     return rc;
