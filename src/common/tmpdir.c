@@ -24,7 +24,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#define MAX_DIRS 16
+/* A resampling run holds up to five directories at once (the input spill,
+ * the sample store and its borders, the exact count's fields, the result's
+ * runs), and a run by class one more per resampled group until its records
+ * are written: 64 leaves room for 59 groups. */
+#define MAX_DIRS 64
 #define PATH_CAP 1024
 
 enum { SLOT_FREE = 0, SLOT_CLAIMED = 1, SLOT_LIVE = 2 };

@@ -37,15 +37,7 @@ static double cost_of(const exact_tile *x, size_t i)
     return wpd_eliminate_cost_of(x->cost[i], x->half && x->half[i]);
 }
 
-/* Whether p lies within band of the outside of tile's box (as the sample
- * store's border). */
-static int near_faces(const wpd_tile *tile, const double *p, double band)
-{
-    for (int a = 0; a < 3; a++)
-        if (p[a] - tile->box_lo[a] < band || tile->box_hi[a] - p[a] < band)
-            return 1;
-    return 0;
-}
+
 
 /* ------------------------------------------------------------ step 1 */
 
@@ -285,11 +277,11 @@ static int pick_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
     const wpd_tile *tile = &run->plan.tiles[t];
     double band = 2.25 * sw->conflict;
     for (size_t c = 0; rc == 0 && c < x->ncand; c++)
-        x->nborder += near_faces(tile, x->cxyz + 3 * c, band);
+        x->nborder += wpd_tile_near_faces(tile, x->cxyz + 3 * c, band);
     if (rc == 0 && x->ncand && wpd_exact_alloc(sw, t, EF_BORDER, err) == 0) {
         size_t b = 0;
         for (size_t c = 0; c < x->ncand; c++)
-            if (near_faces(tile, x->cxyz + 3 * c, band)) {
+            if (wpd_tile_near_faces(tile, x->cxyz + 3 * c, band)) {
                 x->bidx[b] = (uint32_t)c;
                 memcpy(x->bxyz + 3 * b, x->cxyz + 3 * c, 3 * sizeof *x->bxyz);
                 x->bgid[b] = x->cgid[c], x->bcost[b] = x->ccost[c], x->brank[b++] = x->rank[c];

@@ -74,6 +74,17 @@ static inline double wpd_tile_gap(const wpd_tile *a, const wpd_tile *b)
     return sqrt(d2);
 }
 
+/* Whether p lies within band of the outside of tile t's box: near a face,
+ * or outside it. A point of another tile within band of t's box passes
+ * (tiles do not overlap), so such points are all a neighbour may ask for. */
+static inline int wpd_tile_near_faces(const wpd_tile *t, const double p[3], double band)
+{
+    for (int a = 0; a < 3; a++)
+        if (p[a] - t->box_lo[a] < band || t->box_hi[a] - p[a] < band)
+            return 1;
+    return 0;
+}
+
 void wpd_plan_free(wpd_plan *p);
 
 #endif

@@ -102,15 +102,6 @@ void wpd_store_drop(wpd_run *run, int t)
         wpd_samples_free(&run->store[t]);
 }
 
-/* Whether p lies within band of the outside of box [lo, hi]. */
-static int near_faces(const wpd_tile *tile, const double *p, double band)
-{
-    for (int a = 0; a < 3; a++)
-        if (p[a] - tile->box_lo[a] < band || tile->box_hi[a] - p[a] < band)
-            return 1;
-    return 0;
-}
-
 /* Tile t's border: its samples within the band of its box's faces (or
  * outside the box: smoothing may have moved them there). */
 static int save_border(wpd_run *run, int t, const wpd_tile_samples *s, wpd_error *err)
@@ -118,12 +109,12 @@ static int save_border(wpd_run *run, int t, const wpd_tile_samples *s, wpd_error
     const wpd_tile *tile = &run->plan.tiles[t];
     size_t m = 0;
     for (size_t i = 0; i < s->n; i++)
-        m += near_faces(tile, s->xyz + 3 * i, WPD_STORE_BAND * run->halo);
+        m += wpd_tile_near_faces(tile, s->xyz + 3 * i, WPD_STORE_BAND * run->halo);
     wpd_tile_samples b;
     if (wpd_samples_alloc(&b, m, s->edge != NULL))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
     for (size_t i = 0; i < s->n; i++)
-        if (near_faces(tile, s->xyz + 3 * i, WPD_STORE_BAND * run->halo)) {
+        if (wpd_tile_near_faces(tile, s->xyz + 3 * i, WPD_STORE_BAND * run->halo)) {
             b.gid[b.n] = s->gid[i];
             memcpy(b.xyz + 3 * b.n, s->xyz + 3 * i, 3 * sizeof *b.xyz);
             if (b.edge)
