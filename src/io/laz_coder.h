@@ -15,6 +15,17 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* Format constants (LAZ specification, "arithmetic coder"): the interval
+ * is renormalised below 2^24; bit models keep probabilities in 13 bits and
+ * symbol models their distributions in 15 bits. */
+enum {
+    LAZ_AC_MIN_LENGTH = 0x01000000u,
+    LAZ_BM_LENGTH_SHIFT = 13,
+    LAZ_BM_MAX_COUNT = 1u << LAZ_BM_LENGTH_SHIFT,
+    LAZ_DM_LENGTH_SHIFT = 15,
+    LAZ_DM_MAX_COUNT = 1u << LAZ_DM_LENGTH_SHIFT,
+};
+
 /* ---- byte source ---- */
 
 /* Reads a file stretch [pos, limit) through a buffer. Bytes asked for at
@@ -81,6 +92,11 @@ int laz_sym_create(laz_sym *m, uint32_t n);
 void laz_sym_reset(laz_sym *m);
 void laz_sym_free(laz_sym *m);
 
+/* The model updates after a run of coded bits or symbols: shared by the
+ * decoder and the encoder (laz_encoder.c), which must adapt identically. */
+void laz_bit_update(laz_bit *m);
+void laz_sym_update(laz_sym *m);
+
 uint32_t laz_dec_bit(laz_dec *d, laz_bit *m);
 uint32_t laz_dec_symbol(laz_dec *d, laz_sym *m);
 /* Raw (unmodelled) bits: n in 1..32. */
@@ -112,6 +128,17 @@ int laz_ic_create(laz_ic *ic, uint32_t bits, uint32_t contexts);
 /* Returns every model to its start state (lazily: see laz_coder.c). */
 void laz_ic_reset(laz_ic *ic);
 void laz_ic_free(laz_ic *ic);
+/* Model m (stamp index i: the contexts' models first, then the correctors'
+ * at contexts + k) of ic, reset first if not used since laz_ic_reset. */
+static inline laz_sym *laz_ic_model(laz_ic *ic, laz_sym *m, uint32_t i)
+{
+    if (ic->stamp[i] != ic->epoch) {
+        laz_sym_reset(m);
+        ic->stamp[i] = ic->epoch;
+    }
+    return m;
+}
+
 /* Decodes the value predicted as pred in context ctx (< contexts). */
 int32_t laz_ic_decode(laz_ic *ic, laz_dec *d, int32_t pred, uint32_t ctx);
 
