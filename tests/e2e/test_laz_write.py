@@ -15,6 +15,7 @@ import struct
 import subprocess
 
 from harness import DATA, REPO, Skip, data, manifest, wpd
+from test_laz import records
 
 LAZ2LAS = os.path.join(DATA, "..", "tools", "laz2las.js")
 NODE_PATH = os.environ.get("LAZPERF_NODE_PATH",
@@ -32,18 +33,6 @@ def laz2las(laz, las):
     p = subprocess.run(["node", LAZ2LAS, laz, las], capture_output=True, text=True,
                        env=dict(os.environ, NODE_PATH=NODE_PATH))
     assert p.returncode == 0, (laz, p.stdout, p.stderr)
-
-
-def records(path):
-    """(count, point record bytes) of an uncompressed LAS file."""
-    with open(path, "rb") as f:
-        b = f.read()
-    off = struct.unpack_from("<I", b, 96)[0]
-    reclen = struct.unpack_from("<H", b, 105)[0]
-    n = struct.unpack_from("<I", b, 107)[0]
-    if b[25] >= 4:
-        n = struct.unpack_from("<Q", b, 247)[0] or n
-    return n, b[off:off + n * reclen]
 
 
 def read(path):
