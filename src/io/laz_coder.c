@@ -69,8 +69,26 @@ uint8_t laz_in_refill(laz_in *in)
 
 void laz_in_bytes(laz_in *in, uint8_t *dst, size_t n)
 {
-    for (size_t i = 0; i < n; i++)
-        dst[i] = laz_in_byte(in);
+    while (n) { /* whole buffered runs at a time; the refill does the rest */
+        size_t run = (size_t)(in->end - in->cur);
+        if (!run) {
+            *dst++ = laz_in_refill(in);
+            n--;
+            continue;
+        }
+        run = run < n ? run : n;
+        memcpy(dst, in->cur, run);
+        in->cur += run, dst += run, n -= run;
+    }
+}
+
+void laz_in_memory(laz_in *in, const uint8_t *data, size_t n)
+{
+    memset(in, 0, sizeof *in);
+    in->fd = -1;
+    in->cur = data;
+    in->end = data + n;
+    in->end_off = in->limit = n;
 }
 
 /* ---- arithmetic decoder ---- */

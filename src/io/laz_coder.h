@@ -61,6 +61,10 @@ static inline uint8_t laz_in_byte(laz_in *in)
 }
 /* Copies n bytes into dst (zeros past the limit, counted as overrun). */
 void laz_in_bytes(laz_in *in, uint8_t *dst, size_t n);
+/* Makes in a source over n bytes in memory (not owned, not freed): the
+ * layers of the layered compressor are decoded from a chunk buffer. The
+ * offsets it reports (laz_in_tell) count from data. */
+void laz_in_memory(laz_in *in, const uint8_t *data, size_t n);
 
 /* ---- arithmetic decoder ---- */
 
@@ -137,6 +141,29 @@ static inline laz_sym *laz_ic_model(laz_ic *ic, laz_sym *m, uint32_t i)
         ic->stamp[i] = ic->epoch;
     }
     return m;
+}
+
+/* A symbol model made on first use and reset on first use after its
+ * owner's epoch moved on (a chunk or context start): the layered items
+ * have many models selected by previous values, most never used. */
+typedef struct laz_lazy_sym {
+    laz_sym m;
+    uint32_t stamp;
+} laz_lazy_sym;
+
+/* The model of l (n symbols), made or reset as needed; NULL if it cannot
+ * be allocated. */
+static inline laz_sym *laz_lazy_model(laz_lazy_sym *l, uint32_t n, uint32_t epoch)
+{
+    if (!l->m.distribution) {
+        if (laz_sym_create(&l->m, n))
+            return NULL;
+        l->stamp = epoch;
+    } else if (l->stamp != epoch) {
+        laz_sym_reset(&l->m);
+        l->stamp = epoch;
+    }
+    return &l->m;
 }
 
 /* Decodes the value predicted as pred in context ctx (< contexts). */

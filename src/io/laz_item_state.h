@@ -162,4 +162,25 @@ struct laz_items {
  * NULL if it cannot be allocated. */
 laz_sym *laz_point10_byte_model(point10 *p, int f, uint8_t prev, uint32_t epoch);
 
+/* GPS time and RGB state shared with the layered items (GPS time in
+ * POINT14 v3, RGB14 v3 colour): same models and prediction, other symbol
+ * counts for GPS (v2: 516 and 6; v3: 515 and 5). NULL if out of memory. */
+gpstime *laz_gpstime_create(uint32_t multi_symbols, uint32_t zero_symbols);
+void laz_gpstime_free(gpstime *g);
+/* Resets the models and takes the 8 bytes at rec as the only sequence. */
+void laz_gpstime_start(gpstime *g, const uint8_t *rec);
+/* Adds diff to the current sequence's time. */
+void laz_gpstime_add(gpstime *g, int32_t diff);
+/* A time beyond a 32-bit difference: opens the next sequence. */
+void laz_gpstime_full(gpstime *g, laz_dec *d);
+/* The difference coded against multi (0..510) times the last one. */
+void laz_gpstime_multi(gpstime *g, laz_dec *d, int32_t multi);
+
+rgb12 *laz_rgb12_create(void);
+void laz_rgb12_free(rgb12 *c);
+/* Resets the models and takes the 6 bytes at rec as the last colour. */
+void laz_rgb12_start(rgb12 *c, const uint8_t *rec);
+/* Decodes one colour (6 bytes) into out; it becomes the last colour. */
+void laz_rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out);
+
 #endif

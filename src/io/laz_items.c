@@ -168,7 +168,7 @@ static int point10_decode(point10 *p, laz_dec *d, uint8_t *out, uint32_t epoch)
 
 /* ---- GPSTIME11 ---- */
 
-static void gpstime_free(gpstime *g)
+void laz_gpstime_free(gpstime *g)
 {
     if (!g)
         return;
@@ -178,18 +178,18 @@ static void gpstime_free(gpstime *g)
     free(g);
 }
 
-static gpstime *gpstime_create(void)
+gpstime *laz_gpstime_create(uint32_t multi_symbols, uint32_t zero_symbols)
 {
     gpstime *g = calloc(1, sizeof *g);
-    if (g && (laz_sym_create(&g->m_multi, GPS_MULTI_TOTAL) || laz_sym_create(&g->m_0diff, 6) ||
-              laz_ic_create(&g->ic, 32, 9))) {
-        gpstime_free(g);
+    if (g && (laz_sym_create(&g->m_multi, multi_symbols) ||
+              laz_sym_create(&g->m_0diff, zero_symbols) || laz_ic_create(&g->ic, 32, 9))) {
+        laz_gpstime_free(g);
         return NULL;
     }
     return g;
 }
 
-static void gpstime_start(gpstime *g, const uint8_t *rec)
+void laz_gpstime_start(gpstime *g, const uint8_t *rec)
 {
     g->last = g->next = 0;
     memset(g->last_diff, 0, sizeof g->last_diff);
@@ -204,7 +204,7 @@ static void gpstime_start(gpstime *g, const uint8_t *rec)
 /* A time that does not fit a 32-bit difference: its high 32 bits
  * predicted by the current sequence's, the low 32 raw. Opens a new
  * sequence in the next of the four slots. */
-static void gpstime_full(gpstime *g, laz_dec *d)
+void laz_gpstime_full(gpstime *g, laz_dec *d)
 {
     g->next = (g->next + 1) & 3;
     uint32_t high = (uint32_t)laz_ic_decode(&g->ic, d,
@@ -216,7 +216,7 @@ static void gpstime_full(gpstime *g, laz_dec *d)
     g->extreme_count[g->last] = 0;
 }
 
-static void gpstime_add(gpstime *g, int32_t diff)
+void laz_gpstime_add(gpstime *g, int32_t diff)
 {
     g->last_time[g->last] = (int64_t)((uint64_t)g->last_time[g->last] + (uint64_t)(int64_t)diff);
 }
@@ -224,7 +224,7 @@ static void gpstime_add(gpstime *g, int32_t diff)
 /* A difference coded against multi times the last difference (multi in
  * 0..510 of the symbol): 0 and the extremes also count towards replacing
  * the last difference after four in a row, as the encoder does. */
-static void gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
+void laz_gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
 {
     int32_t last = g->last_diff[g->last], diff;
     int extreme = 0;
@@ -251,7 +251,7 @@ static void gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
         g->last_diff[g->last] = diff;
         g->extreme_count[g->last] = 0;
     }
-    gpstime_add(g, diff);
+    laz_gpstime_add(g, diff);
 }
 
 /* One step; returns 1 when the stream switched sequence and the time
@@ -264,10 +264,10 @@ static int gpstime_step(gpstime *g, laz_dec *d)
         if (multi == 1) {
             int32_t diff = laz_ic_decode(&g->ic, d, 0, 0);
             g->last_diff[g->last] = diff;
-            gpstime_add(g, diff);
+            laz_gpstime_add(g, diff);
             g->extreme_count[g->last] = 0;
         } else if (multi == 2) {
-            gpstime_full(g, d);
+            laz_gpstime_full(g, d);
         } else if (multi > 2) {
             g->last = (g->last + multi - 2) & 3;
             return 1;
@@ -276,12 +276,12 @@ static int gpstime_step(gpstime *g, laz_dec *d)
     }
     uint32_t multi = laz_dec_symbol(d, &g->m_multi);
     if (multi == 1) {
-        gpstime_add(g, laz_ic_decode(&g->ic, d, g->last_diff[g->last], 1));
+        laz_gpstime_add(g, laz_ic_decode(&g->ic, d, g->last_diff[g->last], 1));
         g->extreme_count[g->last] = 0;
     } else if (multi < GPS_MULTI_UNCHANGED) {
-        gpstime_multi(g, d, (int32_t)multi);
+        laz_gpstime_multi(g, d, (int32_t)multi);
     } else if (multi == GPS_MULTI_CODE_FULL) {
-        gpstime_full(g, d);
+        laz_gpstime_full(g, d);
     } else if (multi > GPS_MULTI_CODE_FULL) {
         g->last = (g->last + multi - GPS_MULTI_CODE_FULL) & 3;
         return 1;
@@ -305,7 +305,7 @@ static int gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why
 
 /* ---- RGB12 ---- */
 
-static void rgb12_free(rgb12 *c)
+void laz_rgb12_free(rgb12 *c)
 {
     if (!c)
         return;
@@ -315,20 +315,20 @@ static void rgb12_free(rgb12 *c)
     free(c);
 }
 
-static rgb12 *rgb12_create(void)
+rgb12 *laz_rgb12_create(void)
 {
     rgb12 *c = calloc(1, sizeof *c);
     int bad = !c || laz_sym_create(&c->m_used, 128);
     for (int i = 0; i < 6 && !bad; i++)
         bad = laz_sym_create(&c->m_diff[i], 256);
     if (bad) {
-        rgb12_free(c);
+        laz_rgb12_free(c);
         return NULL;
     }
     return c;
 }
 
-static void rgb12_start(rgb12 *c, const uint8_t *rec)
+void laz_rgb12_start(rgb12 *c, const uint8_t *rec)
 {
     laz_sym_reset(&c->m_used);
     for (int i = 0; i < 6; i++)
@@ -350,7 +350,7 @@ static unsigned rgb12_byte(rgb12 *c, laz_dec *d, uint32_t used, int bit, int ch,
 /* Red is coded against the previous red; green and blue (flag bit 6:
  * not grey) against the previous value moved by red's change, blue by the
  * mean of red's and green's change, each clamped to a byte. */
-static void rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out)
+void laz_rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out)
 {
     uint16_t *last = c->last;
     uint32_t used = laz_dec_symbol(d, &c->m_used);
@@ -445,8 +445,8 @@ void laz_items_free(laz_items *it)
         item *x = &it->it[i];
         switch (x->type) {
         case LAZ_ITEM_POINT10: point10_free(x->u.p); break;
-        case LAZ_ITEM_GPSTIME11: gpstime_free(x->u.g); break;
-        case LAZ_ITEM_RGB12: rgb12_free(x->u.c); break;
+        case LAZ_ITEM_GPSTIME11: laz_gpstime_free(x->u.g); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_free(x->u.c); break;
         default: bytes_free(x->u.b); break;
         }
     }
@@ -469,8 +469,8 @@ laz_items *laz_items_create(const wpd_laz_item *list, uint32_t n)
         void *made;
         switch (x->type) {
         case LAZ_ITEM_POINT10: made = x->u.p = point10_create(); break;
-        case LAZ_ITEM_GPSTIME11: made = x->u.g = gpstime_create(); break;
-        case LAZ_ITEM_RGB12: made = x->u.c = rgb12_create(); break;
+        case LAZ_ITEM_GPSTIME11: made = x->u.g = laz_gpstime_create(GPS_MULTI_TOTAL, 6); break;
+        case LAZ_ITEM_RGB12: made = x->u.c = laz_rgb12_create(); break;
         default: made = x->u.b = bytes_create(list[i].size); break;
         }
         it->n = i + 1;
@@ -490,8 +490,8 @@ void laz_items_start(laz_items *it, const uint8_t *rec)
         const uint8_t *p = rec + x->offset;
         switch (x->type) {
         case LAZ_ITEM_POINT10: point10_start(x->u.p, p); break;
-        case LAZ_ITEM_GPSTIME11: gpstime_start(x->u.g, p); break;
-        case LAZ_ITEM_RGB12: rgb12_start(x->u.c, p); break;
+        case LAZ_ITEM_GPSTIME11: laz_gpstime_start(x->u.g, p); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_start(x->u.c, p); break;
         default: bytes_start(x->u.b, p); break;
         }
     }
@@ -511,7 +511,7 @@ int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why)
             if (gpstime_decode(x->u.g, d, p, why))
                 return -1;
             break;
-        case LAZ_ITEM_RGB12: rgb12_decode(x->u.c, d, p); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_decode(x->u.c, d, p); break;
         default: bytes_decode(x->u.b, d, p); break;
         }
     }
