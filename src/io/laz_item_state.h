@@ -118,9 +118,13 @@ enum {
     GPS_MULTI_UNCHANGED = GPS_MULTI - GPS_MULTI_MINUS + 1, /* 511 */
     GPS_MULTI_CODE_FULL = GPS_MULTI - GPS_MULTI_MINUS + 2, /* 512 */
     GPS_MULTI_TOTAL = GPS_MULTI - GPS_MULTI_MINUS + 6,     /* 516 */
+    /* version 3: no "unchanged" code */
+    GPS14_CODE_FULL = GPS_MULTI - GPS_MULTI_MINUS + 1,    /* 511 */
+    GPS14_TOTAL = GPS_MULTI - GPS_MULTI_MINUS + 5,        /* 515 */
 };
 
 typedef struct gpstime {
+    int v3;                 /* version 3 (POINT14) codes, see gpstime_step */
     uint32_t last, next;
     int64_t last_time[4];
     int32_t last_diff[4];
@@ -163,9 +167,9 @@ struct laz_items {
 laz_sym *laz_point10_byte_model(point10 *p, int f, uint8_t prev, uint32_t epoch);
 
 /* GPS time and RGB state shared with the layered items (GPS time in
- * POINT14 v3, RGB14 v3 colour): same models and prediction, other symbol
- * counts for GPS (v2: 516 and 6; v3: 515 and 5). NULL if out of memory. */
-gpstime *laz_gpstime_create(uint32_t multi_symbols, uint32_t zero_symbols);
+ * POINT14 v3, RGB14 v3 colour): same models and prediction; GPS time v3
+ * has no "unchanged" code. NULL if out of memory. */
+gpstime *laz_gpstime_create(int v3);
 void laz_gpstime_free(gpstime *g);
 /* Resets the models and takes the 8 bytes at rec as the only sequence. */
 void laz_gpstime_start(gpstime *g, const uint8_t *rec);
@@ -175,6 +179,12 @@ void laz_gpstime_add(gpstime *g, int32_t diff);
 void laz_gpstime_full(gpstime *g, laz_dec *d);
 /* The difference coded against multi (0..510) times the last one. */
 void laz_gpstime_multi(gpstime *g, laz_dec *d, int32_t multi);
+/* Decodes the next time into out (8 bytes). Returns 0, or -1 with *why
+ * set when the stream keeps switching sequences (corrupt). */
+int laz_gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why);
+/* Encodes the time at rec (laz_items_enc.c): the inverse of
+ * laz_gpstime_decode. Version 3 is called only for a changed time. */
+void laz_gpstime_encode(gpstime *g, laz_enc *e, const uint8_t *rec);
 
 rgb12 *laz_rgb12_create(void);
 void laz_rgb12_free(rgb12 *c);

@@ -178,11 +178,13 @@ void laz_gpstime_free(gpstime *g)
     free(g);
 }
 
-gpstime *laz_gpstime_create(uint32_t multi_symbols, uint32_t zero_symbols)
+gpstime *laz_gpstime_create(int v3)
 {
     gpstime *g = calloc(1, sizeof *g);
-    if (g && (laz_sym_create(&g->m_multi, multi_symbols) ||
-              laz_sym_create(&g->m_0diff, zero_symbols) || laz_ic_create(&g->ic, 32, 9))) {
+    if (g)
+        g->v3 = v3;
+    if (g && (laz_sym_create(&g->m_multi, v3 ? GPS14_TOTAL : GPS_MULTI_TOTAL) ||
+              laz_sym_create(&g->m_0diff, v3 ? 5 : 6) || laz_ic_create(&g->ic, 32, 9))) {
         laz_gpstime_free(g);
         return NULL;
     }
@@ -256,40 +258,45 @@ void laz_gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
 
 /* One step; returns 1 when the stream switched sequence and the time
  * follows (the encoder codes the switch, then the time in the new
- * sequence), else 0. */
+ * sequence), else 0. Version 2 has an "unchanged" code in both models;
+ * version 3 does not (POINT14 flags a changed time itself), so its other
+ * codes are one lower. */
 static int gpstime_step(gpstime *g, laz_dec *d)
 {
     if (g->last_diff[g->last] == 0) {
         uint32_t multi = laz_dec_symbol(d, &g->m_0diff);
-        if (multi == 1) {
+        if (!g->v3 && multi-- == 0)
+            return 0;
+        if (multi == 0) {
             int32_t diff = laz_ic_decode(&g->ic, d, 0, 0);
             g->last_diff[g->last] = diff;
             laz_gpstime_add(g, diff);
             g->extreme_count[g->last] = 0;
-        } else if (multi == 2) {
+        } else if (multi == 1) {
             laz_gpstime_full(g, d);
-        } else if (multi > 2) {
-            g->last = (g->last + multi - 2) & 3;
+        } else {
+            g->last = (g->last + multi - 1) & 3;
             return 1;
         }
         return 0;
     }
     uint32_t multi = laz_dec_symbol(d, &g->m_multi);
+    uint32_t full = g->v3 ? GPS14_CODE_FULL : GPS_MULTI_CODE_FULL;
     if (multi == 1) {
         laz_gpstime_add(g, laz_ic_decode(&g->ic, d, g->last_diff[g->last], 1));
         g->extreme_count[g->last] = 0;
     } else if (multi < GPS_MULTI_UNCHANGED) {
         laz_gpstime_multi(g, d, (int32_t)multi);
-    } else if (multi == GPS_MULTI_CODE_FULL) {
+    } else if (multi == full) {
         laz_gpstime_full(g, d);
-    } else if (multi > GPS_MULTI_CODE_FULL) {
-        g->last = (g->last + multi - GPS_MULTI_CODE_FULL) & 3;
+    } else if (multi > full) {
+        g->last = (g->last + multi - full) & 3;
         return 1;
     }
     return 0;
 }
 
-static int gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why)
+int laz_gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why)
 {
     /* A valid stream switches at most once per point; a few more are
      * allowed, then the stream is taken as corrupt rather than looping. */
@@ -469,7 +476,7 @@ laz_items *laz_items_create(const wpd_laz_item *list, uint32_t n)
         void *made;
         switch (x->type) {
         case LAZ_ITEM_POINT10: made = x->u.p = point10_create(); break;
-        case LAZ_ITEM_GPSTIME11: made = x->u.g = laz_gpstime_create(GPS_MULTI_TOTAL, 6); break;
+        case LAZ_ITEM_GPSTIME11: made = x->u.g = laz_gpstime_create(0); break;
         case LAZ_ITEM_RGB12: made = x->u.c = laz_rgb12_create(); break;
         default: made = x->u.b = bytes_create(list[i].size); break;
         }
@@ -508,7 +515,7 @@ int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why)
                 return -2;
             break;
         case LAZ_ITEM_GPSTIME11:
-            if (gpstime_decode(x->u.g, d, p, why))
+            if (laz_gpstime_decode(x->u.g, d, p, why))
                 return -1;
             break;
         case LAZ_ITEM_RGB12: laz_rgb12_decode(x->u.c, d, p); break;

@@ -168,14 +168,15 @@ static int gpstime_step(gpstime *g, laz_enc *e, int64_t t)
 {
     int zero = g->last_diff[g->last] == 0;
     laz_sym *m = zero ? &g->m_0diff : &g->m_multi;
+    uint32_t v2 = !g->v3; /* version 2 codes "unchanged" first: the rest are one up */
     int32_t diff;
-    if (t == g->last_time[g->last]) {
+    if (v2 && t == g->last_time[g->last]) {
         laz_enc_symbol(e, m, zero ? 0 : GPS_MULTI_UNCHANGED);
         return 0;
     }
     if (diff32(t, g->last_time[g->last], &diff)) {
         if (zero) {
-            laz_enc_symbol(e, m, 1);
+            laz_enc_symbol(e, m, v2);
             laz_ic_encode(&g->ic, e, 0, diff, 0);
             g->last_diff[g->last] = diff;
             g->extreme_count[g->last] = 0;
@@ -184,7 +185,7 @@ static int gpstime_step(gpstime *g, laz_enc *e, int64_t t)
         }
     } else {
         uint32_t other = other_sequence(g, t);
-        uint32_t full = zero ? 2 : GPS_MULTI_CODE_FULL;
+        uint32_t full = zero ? 1 + v2 : GPS14_CODE_FULL + v2;
         laz_enc_symbol(e, m, full + other);
         if (other) {
             g->last = (g->last + other) & 3;
@@ -196,7 +197,7 @@ static int gpstime_step(gpstime *g, laz_enc *e, int64_t t)
     return 0;
 }
 
-static void gpstime_encode(gpstime *g, laz_enc *e, const uint8_t *rec)
+void laz_gpstime_encode(gpstime *g, laz_enc *e, const uint8_t *rec)
 {
     int64_t t;
     memcpy(&t, rec, 8);
@@ -275,7 +276,7 @@ int laz_items_encode(laz_items *it, laz_enc *e, const uint8_t *rec)
             if (point10_encode(x->u.p, e, p, it->epoch))
                 return -1;
             break;
-        case LAZ_ITEM_GPSTIME11: gpstime_encode(x->u.g, e, p); break;
+        case LAZ_ITEM_GPSTIME11: laz_gpstime_encode(x->u.g, e, p); break;
         case LAZ_ITEM_RGB12: rgb12_encode(x->u.c, e, p); break;
         default: bytes_encode(x->u.b, e, p); break;
         }

@@ -25,10 +25,6 @@ enum {
     P14_GPS, P14_LAYERS
 };
 
-/* GPS time v3: the v2 scheme without the "unchanged" code (the XY layer
- * says whether the time changed). */
-enum { GPS14_CODE_FULL = 511, GPS14_TOTAL = 515, GPS14_ZERO_SYMBOLS = 5 };
-
 /* One layer of a chunk: its byte count, whether it is decoded (wanted and
  * not empty; an empty layer means the attribute never changes in the
  * chunk), and its stream (decoding: in and dec over the chunk buffer;

@@ -68,7 +68,7 @@ static p14_context *context_create(void)
     p14_context *c = calloc(1, sizeof *c);
     if (!c)
         return NULL;
-    int bad = !(c->gps = laz_gpstime_create(GPS14_TOTAL, GPS14_ZERO_SYMBOLS));
+    int bad = !(c->gps = laz_gpstime_create(1));
     for (int i = 0; i < 8 && !bad; i++)
         bad = laz_sym_create(&c->m_changed[i], 128);
     bad = bad || laz_sym_create(&c->m_channel, 3) || laz_sym_create(&c->m_return_gps_same, 13) ||
@@ -263,53 +263,6 @@ static int user_data(p14_context *c, laz_layer *layer)
     return 0;
 }
 
-/* One step of the GPS time (v3 codes): returns 1 when the stream switched
- * sequence and the time follows. */
-static int gps_step(gpstime *g, laz_dec *d)
-{
-    if (g->last_diff[g->last] == 0) {
-        uint32_t multi = laz_dec_symbol(d, &g->m_0diff);
-        if (multi == 0) {
-            int32_t diff = laz_ic_decode(&g->ic, d, 0, 0);
-            g->last_diff[g->last] = diff;
-            laz_gpstime_add(g, diff);
-            g->extreme_count[g->last] = 0;
-        } else if (multi == 1) {
-            laz_gpstime_full(g, d);
-        } else {
-            g->last = (g->last + multi - 1) & 3;
-            return 1;
-        }
-        return 0;
-    }
-    uint32_t multi = laz_dec_symbol(d, &g->m_multi);
-    if (multi == 1) {
-        laz_gpstime_add(g, laz_ic_decode(&g->ic, d, g->last_diff[g->last], 1));
-        g->extreme_count[g->last] = 0;
-    } else if (multi < GPS14_CODE_FULL) {
-        laz_gpstime_multi(g, d, (int32_t)multi);
-    } else if (multi == GPS14_CODE_FULL) {
-        laz_gpstime_full(g, d);
-    } else {
-        g->last = (g->last + multi - GPS14_CODE_FULL) & 3;
-        return 1;
-    }
-    return 0;
-}
-
-static int gps_time(p14_context *c, laz_dec *d, const char **why)
-{
-    /* A valid stream switches sequence at most once per point. */
-    int steps = 0;
-    while (gps_step(c->gps, d))
-        if (++steps > 4) {
-            *why = "GPS time sequence switches without end";
-            return -1;
-        }
-    memcpy(c->last + 22, &c->gps->last_time[c->gps->last], 8);
-    return 0;
-}
-
 int laz_point14_decode(point14 *p, laz_layer *layer, uint8_t *out, const char **why)
 {
     laz_dec *d = &layer[P14_XY].dec;
@@ -333,7 +286,8 @@ int laz_point14_decode(point14 *p, laz_layer *layer, uint8_t *out, const char **
     intensity_angle_source(c, layer, changed, cpr, gps);
     if (user_data(c, layer))
         return -2;
-    if (layer[P14_GPS].active && gps && gps_time(c, &layer[P14_GPS].dec, why))
+    if (layer[P14_GPS].active && gps &&
+        laz_gpstime_decode(c->gps, &layer[P14_GPS].dec, c->last + 22, why))
         return -1;
     c->gps_change = gps;
     memcpy(out, c->last, 30);
