@@ -50,7 +50,8 @@ typedef struct wpd_laz_writer wpd_laz_writer;
 /* For records of point format pdrf, record_length bytes (>= the format's
  * size; the rest are extra bytes). path names the output in messages and
  * must outlive the writer. Returns NULL with err set: WPD_E_USAGE (one
- * line) for point formats 4-10, which are not compressed; WPD_E_MEMORY. */
+ * line) for point formats 4, 5, 9 and 10 (waveform packets), which are not
+ * compressed; WPD_E_MEMORY. Formats 6-8 use the layered compressor. */
 wpd_laz_writer *wpd_laz_writer_create(const char *path, uint8_t pdrf, uint16_t record_length,
                                       wpd_error *err);
 void wpd_laz_writer_free(wpd_laz_writer *z);

@@ -192,5 +192,7 @@ void laz_rgb12_free(rgb12 *c);
 void laz_rgb12_start(rgb12 *c, const uint8_t *rec);
 /* Decodes one colour (6 bytes) into out; it becomes the last colour. */
 void laz_rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out);
+/* Encodes the colour at rec (laz_items_enc.c); it becomes the last one. */
+void laz_rgb12_encode(rgb12 *c, laz_enc *e, const uint8_t *rec);
 
 #endif

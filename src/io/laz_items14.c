@@ -5,9 +5,10 @@
  * Colour is coded as RGB12 v2 (laz_items.c), in its own layer; NIR in a
  * second layer, its two bytes flagged as changed by a 2-bit symbol and
  * coded as differences modulo 256. Each extra byte is its own layer, the
- * difference to the same byte of the previous point. All of them keep one
- * context per scanner channel, which POINT14 decides: a channel's first
- * point in a chunk starts its context from the previous channel's values.
+ * difference to the same byte of the previous point. All of them keep a
+ * context per scanner channel, which POINT14 decides; which context's
+ * previous values predict a point is LASzip's rule in
+ * laz_layered_state.h.
  */
 #include "io/laz_layered_state.h"
 
@@ -55,7 +56,7 @@ void laz_color14_free(color14 *c)
     free(c);
 }
 
-/* Starts context ch from the colour rgb (u16[3]) and NIR value. */
+/* Starts context ch: fresh models, the previous values rgb and nir. */
 static int color_context(color14 *c, unsigned ch, const uint16_t *rgb, uint16_t nir)
 {
     if (!c->ctx[ch] && !(c->ctx[ch] = color_context_create()))
@@ -65,10 +66,11 @@ static int color_context(color14 *c, unsigned ch, const uint16_t *rgb, uint16_t 
     for (int i = 0; i < 3; i++)
         put_u16(raw + 2 * i, rgb[i]);
     laz_rgb12_start(x->rgb, raw);
+    memmove(x->last, rgb, sizeof x->last);
+    x->last_nir = nir;
     laz_sym_reset(&x->m_nir_used);
     laz_sym_reset(&x->m_nir_diff[0]);
     laz_sym_reset(&x->m_nir_diff[1]);
-    x->last_nir = nir;
     c->used |= 1u << ch;
     return 0;
 }
@@ -81,44 +83,85 @@ int laz_color14_start(color14 *c, unsigned ch, const uint8_t *rec)
     return color_context(c, ch, rgb, c->nir ? get_u16(rec + 6) : 0);
 }
 
-int laz_color14_switch(color14 *c, unsigned ch)
+/* Moves to channel ch; *last gets the context whose previous values
+ * predict this point (see laz_layered_state.h). */
+static int color_switch(color14 *c, unsigned ch, color14_context **last)
 {
-    if (ch != c->current && !(c->used & (1u << ch))) {
-        color14_context *x = c->ctx[c->current];
-        uint16_t rgb[3];
-        memcpy(rgb, x->rgb->last, sizeof rgb);
-        if (color_context(c, ch, rgb, x->last_nir))
-            return -1;
-    }
+    color14_context *prev = c->ctx[c->current];
+    *last = prev;
+    if (ch == c->current)
+        return 0;
     c->current = ch;
+    if (c->used & (1u << ch))
+        return 0;
+    if (color_context(c, ch, prev->last, prev->last_nir))
+        return -1;
+    *last = c->ctx[ch];
     return 0;
 }
 
 /* NIR: which of its two bytes changed, then each as a difference. */
-static uint16_t nir_decode(color14_context *x, laz_dec *d)
+static void nir_decode(color14_context *x, color14_context *l, laz_dec *d)
 {
     uint32_t used = laz_dec_symbol(d, &x->m_nir_used);
-    unsigned lo = x->last_nir & 0xFF, hi = x->last_nir >> 8;
+    unsigned lo = l->last_nir & 0xFF, hi = l->last_nir >> 8;
     if (used & 1)
         lo = fold8((int)laz_dec_symbol(d, &x->m_nir_diff[0]) + (int)lo);
     if (used & 2)
         hi = fold8((int)laz_dec_symbol(d, &x->m_nir_diff[1]) + (int)hi);
-    return x->last_nir = (uint16_t)(lo | hi << 8);
+    l->last_nir = (uint16_t)(lo | hi << 8);
 }
 
 int laz_color14_decode(color14 *c, laz_layer *layer, unsigned ch, uint8_t *out)
 {
-    if (laz_color14_switch(c, ch))
+    color14_context *l;
+    if (color_switch(c, ch, &l))
         return -2;
     color14_context *x = c->ctx[c->current];
-    if (layer[0].active) {
+    if (layer[0].active) { /* x's models, l's previous colour */
+        memcpy(x->rgb->last, l->last, sizeof l->last);
         laz_rgb12_decode(x->rgb, &layer[0].dec, out);
+        memcpy(l->last, x->rgb->last, sizeof l->last);
     } else {
         for (int i = 0; i < 3; i++)
-            put_u16(out + 2 * i, x->rgb->last[i]);
+            put_u16(out + 2 * i, l->last[i]);
     }
-    if (c->nir)
-        put_u16(out + 6, layer[1].active ? nir_decode(x, &layer[1].dec) : x->last_nir);
+    if (c->nir) {
+        if (layer[1].active)
+            nir_decode(x, l, &layer[1].dec);
+        put_u16(out + 6, l->last_nir);
+    }
+    return 0;
+}
+
+/* NIR from the encoder's side: nir_decode's flags and differences. */
+static void nir_encode(color14_context *x, color14_context *l, laz_enc *e, uint16_t nir)
+{
+    uint32_t used = (uint32_t)((nir & 0xFF) != (l->last_nir & 0xFF)) |
+                    (uint32_t)((nir >> 8) != (l->last_nir >> 8)) << 1;
+    laz_enc_symbol(e, &x->m_nir_used, used);
+    if (used & 1)
+        laz_enc_symbol(e, &x->m_nir_diff[0], (uint8_t)((nir & 0xFF) - (l->last_nir & 0xFF)));
+    if (used & 2)
+        laz_enc_symbol(e, &x->m_nir_diff[1], (uint8_t)((nir >> 8) - (l->last_nir >> 8)));
+    l->last_nir = nir;
+}
+
+int laz_color14_encode(color14 *c, laz_layer *layer, unsigned ch, const uint8_t *rec)
+{
+    color14_context *l;
+    if (color_switch(c, ch, &l))
+        return -1;
+    color14_context *x = c->ctx[c->current];
+    for (int i = 0; i < 3; i++)
+        layer[0].changed |= get_u16(rec + 2 * i) != l->last[i];
+    memcpy(x->rgb->last, l->last, sizeof l->last);
+    laz_rgb12_encode(x->rgb, &layer[0].enc, rec);
+    memcpy(l->last, x->rgb->last, sizeof l->last);
+    if (c->nir) {
+        layer[1].changed |= get_u16(rec + 6) != l->last_nir;
+        nir_encode(x, l, &layer[1].enc, get_u16(rec + 6));
+    }
     return 0;
 }
 
@@ -189,23 +232,45 @@ int laz_bytes14_start(bytes14 *b, unsigned ch, const uint8_t *rec)
     return bytes_context(b, ch, rec);
 }
 
-int laz_bytes14_switch(bytes14 *b, unsigned ch)
+/* As color_switch: *last is the previous values that predict. */
+static int bytes_switch(bytes14 *b, unsigned ch, uint8_t **last)
 {
-    if (ch != b->current && !(b->used & (1u << ch)) &&
-        bytes_context(b, ch, b->ctx[b->current]->last))
-        return -1;
+    bytes14_context *prev = b->ctx[b->current];
+    *last = prev->last;
+    if (ch == b->current)
+        return 0;
     b->current = ch;
+    if (b->used & (1u << ch))
+        return 0;
+    if (bytes_context(b, ch, prev->last))
+        return -1;
+    *last = b->ctx[ch]->last;
     return 0;
 }
 
 int laz_bytes14_decode(bytes14 *b, laz_layer *layer, unsigned ch, uint8_t *out)
 {
-    if (laz_bytes14_switch(b, ch))
+    uint8_t *last;
+    if (bytes_switch(b, ch, &last))
         return -2;
-    bytes14_context *x = b->ctx[b->current];
+    laz_sym *m = b->ctx[b->current]->m;
     for (uint32_t i = 0; i < b->n; i++)
         if (layer[i].active)
-            x->last[i] = fold8(x->last[i] + (int)laz_dec_symbol(&layer[i].dec, &x->m[i]));
-    memcpy(out, x->last, b->n);
+            last[i] = fold8(last[i] + (int)laz_dec_symbol(&layer[i].dec, &m[i]));
+    memcpy(out, last, b->n);
+    return 0;
+}
+
+int laz_bytes14_encode(bytes14 *b, laz_layer *layer, unsigned ch, const uint8_t *rec)
+{
+    uint8_t *last;
+    if (bytes_switch(b, ch, &last))
+        return -1;
+    laz_sym *m = b->ctx[b->current]->m;
+    for (uint32_t i = 0; i < b->n; i++) {
+        laz_enc_symbol(&layer[i].enc, &m[i], (uint8_t)(rec[i] - last[i]));
+        layer[i].changed |= rec[i] != last[i];
+    }
+    memcpy(last, rec, b->n);
     return 0;
 }

@@ -230,7 +230,7 @@ static void rgb12_half(rgb12 *c, laz_enc *e, const uint16_t *rgb, uint32_t used,
     }
 }
 
-static void rgb12_encode(rgb12 *c, laz_enc *e, const uint8_t *rec)
+void laz_rgb12_encode(rgb12 *c, laz_enc *e, const uint8_t *rec)
 {
     uint16_t rgb[3];
     const uint16_t *last = c->last;
@@ -277,7 +277,7 @@ int laz_items_encode(laz_items *it, laz_enc *e, const uint8_t *rec)
                 return -1;
             break;
         case LAZ_ITEM_GPSTIME11: laz_gpstime_encode(x->u.g, e, p); break;
-        case LAZ_ITEM_RGB12: rgb12_encode(x->u.c, e, p); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_encode(x->u.c, e, p); break;
         default: bytes_encode(x->u.b, e, p); break;
         }
     }

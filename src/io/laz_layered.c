@@ -248,3 +248,61 @@ const char *laz_layered_close(const laz_layered *L)
     }
     return NULL;
 }
+
+/* ---- encoding ---- */
+
+int laz_layered_start_encode(laz_layered *L, const uint8_t *rec)
+{
+    for (uint32_t i = 0; i < L->nlayers; i++) {
+        laz_layer *y = &L->layer[i];
+        laz_out_clear(&y->out);
+        laz_enc_init(&y->enc, &y->out);
+        y->changed = i == P14_XY; /* the XY layer is always written */
+    }
+    return start_items(L, rec) ? -1 : 0;
+}
+
+int laz_layered_encode(laz_layered *L, const uint8_t *rec)
+{
+    unsigned ch = 0;
+    for (uint32_t i = 0; i < L->n; i++) {
+        item14 *x = &L->it[i];
+        laz_layer *y = L->layer + x->first;
+        const uint8_t *p = rec + x->offset;
+        int rc;
+        switch (x->type) {
+        case LAZ_ITEM_POINT14:
+            rc = laz_point14_encode(x->u.p, y, p);
+            ch = x->u.p->current;
+            break;
+        case LAZ_ITEM_RGB14: case LAZ_ITEM_RGBNIR14:
+            rc = laz_color14_encode(x->u.c, y, ch, p);
+            break;
+        default: rc = laz_bytes14_encode(x->u.b, y, ch, p); break;
+        }
+        if (rc)
+            return -1;
+    }
+    return 0;
+}
+
+int laz_layered_finish(laz_layered *L, laz_out *out, const uint8_t *first,
+                       uint32_t record_length, uint32_t count)
+{
+    uint8_t b[4];
+    laz_out_bytes(out, first, record_length);
+    las_put_u32(b, count);
+    laz_out_bytes(out, b, 4);
+    for (uint32_t i = 0; i < L->nlayers; i++) {
+        laz_layer *y = &L->layer[i];
+        laz_enc_done(&y->enc);
+        if (y->out.oom)
+            return -1;
+        las_put_u32(b, y->changed ? (uint32_t)y->out.len : 0);
+        laz_out_bytes(out, b, 4);
+    }
+    for (uint32_t i = 0; i < L->nlayers; i++)
+        if (L->layer[i].changed)
+            laz_out_bytes(out, L->layer[i].out.buf, L->layer[i].out.len);
+    return out->oom ? -1 : 0;
+}

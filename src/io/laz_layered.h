@@ -10,6 +10,7 @@
 #include <stdint.h>
 
 #include "io/laz_coder.h"
+#include "io/laz_encoder.h"
 #include "io/schema.h"
 
 typedef struct laz_layered laz_layered;
@@ -43,5 +44,22 @@ int laz_layered_decode(laz_layered *L, uint8_t *rec, const char **why);
 /* After a chunk's last record: NULL if every decoded layer ended exactly
  * at its byte count, else why not (corrupt or truncated). */
 const char *laz_layered_close(const laz_layered *L);
+
+/* ---- encoding (the LAZ writer) ---- */
+
+/* Starts a chunk whose raw first record is rec: every item's context from
+ * it, every layer's stream empty. Returns 0, or -1 if out of memory. */
+int laz_layered_start_encode(laz_layered *L, const uint8_t *rec);
+
+/* Encodes the chunk's next record. Returns 0, or -1 if out of memory. */
+int laz_layered_encode(laz_layered *L, const uint8_t *rec);
+
+/* Ends the chunk of count points opened with first (record_length bytes)
+ * and appends it to out: the raw record, the count, the layer byte counts
+ * (0 for a layer whose field never changed in the chunk: decoders then
+ * keep the first point's value) and the layers. Returns 0, or -1 if out
+ * of memory. */
+int laz_layered_finish(laz_layered *L, laz_out *out, const uint8_t *first,
+                       uint32_t record_length, uint32_t count);
 
 #endif

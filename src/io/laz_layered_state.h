@@ -32,6 +32,7 @@ enum {
 typedef struct laz_layer {
     uint32_t size;
     int active;
+    int changed;                /* encoding: the field changed in the chunk */
     laz_in in;
     laz_dec dec;
     laz_out out;
@@ -58,16 +59,22 @@ typedef struct point14 {
     p14_context *ctx[4];        /* made on first use */
 } point14;
 
-/* Colour (RGB14, and NIR of RGBNIR14) state of one scanner channel. */
+/* Colour (RGB14, and NIR of RGBNIR14) and extra bytes (BYTE14) keep
+ * models and a previous value per scanner channel, but LASzip predicts a
+ * point from the previous value of the *previous point's* channel, except
+ * at a channel's first point in the chunk, which starts that channel's
+ * context from it; the value decoded replaces the one it was predicted
+ * from. (LASzip's items take their "last item" before looking at the
+ * channel and move it only to a new context; this is the format.) */
 typedef struct color14_context {
-    rgb12 *rgb;
-    uint16_t last_nir;
+    rgb12 *rgb;                 /* models (its last is scratch) */
+    uint16_t last[3], last_nir;
     laz_sym m_nir_used, m_nir_diff[2];
 } color14_context;
 
 typedef struct color14 {
     int nir;
-    uint32_t current, used;
+    uint32_t current, used;     /* channel of the previous point; contexts started */
     color14_context *ctx[4];
 } color14;
 
@@ -112,25 +119,32 @@ int laz_point14_context(point14 *p, unsigned ch, const uint8_t *last);
  * -2 if a model cannot be allocated. */
 int laz_point14_decode(point14 *p, laz_layer *layer, uint8_t *out, const char **why);
 
+/* Encodes rec (30 bytes) into the layers (laz_point14_enc.c), setting
+ * layer->changed for each layer whose field changes. Returns 0 or -1 if a
+ * model cannot be allocated. */
+int laz_point14_encode(point14 *p, laz_layer *layer, const uint8_t *rec);
+
 /* ---- colour and extra bytes (laz_items14.c) ---- */
 
 color14 *laz_color14_create(int nir);
 void laz_color14_free(color14 *c);
-/* Chunk start in context ch from the item's raw bytes (6, or 8 with NIR). */
+/* Chunk start in channel ch from the item's raw bytes (6, or 8 with
+ * NIR). Returns 0 or -1 (out of memory). */
 int laz_color14_start(color14 *c, unsigned ch, const uint8_t *rec);
-/* Switches to context ch (made from the current one if unused). */
-int laz_color14_switch(color14 *c, unsigned ch);
 
-/* Decodes the next colour (from layer[0], NIR from layer[1]) into out
- * after switching to context ch. Returns 0 or -2 (out of memory). */
+/* Decodes the next colour (from layer[0], NIR from layer[1]) of a point
+ * of channel ch into out. Returns 0 or -2 (out of memory). */
 int laz_color14_decode(color14 *c, laz_layer *layer, unsigned ch, uint8_t *out);
+/* Encodes the colour at rec in context ch: the inverse of the above.
+ * Returns 0 or -1 (out of memory). */
+int laz_color14_encode(color14 *c, laz_layer *layer, unsigned ch, const uint8_t *rec);
 
 bytes14 *laz_bytes14_create(uint32_t n);
 void laz_bytes14_free(bytes14 *b);
 int laz_bytes14_start(bytes14 *b, unsigned ch, const uint8_t *rec);
-int laz_bytes14_switch(bytes14 *b, unsigned ch);
 /* Decodes the next n bytes (byte i from layer[i]) into out in context ch.
  * Returns 0 or -2 (out of memory). */
 int laz_bytes14_decode(bytes14 *b, laz_layer *layer, unsigned ch, uint8_t *out);
+int laz_bytes14_encode(bytes14 *b, laz_layer *layer, unsigned ch, const uint8_t *rec);
 
 #endif

@@ -90,7 +90,7 @@ def test_copc_vlr_and_evlr_dropped_from_every_output():
     for name in ("laspy_simple_with_page.copc", "rlas_example.copc"):
         src = data("laz", name + ".laz")
         assert (b"copc", 1) in vlr_ids(src) and (b"copc", 1000) in vlr_ids(src)
-        for out in ("o.las", "o.ply"):
+        for out in ("o.las", "o.laz", "o.ply"):
             wpd("convert", src, out, "--force")
             if out != "o.ply":
                 assert not [i for i in vlr_ids(out) if i[0] == b"copc"], (name, out, vlr_ids(out))

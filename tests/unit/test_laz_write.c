@@ -228,6 +228,47 @@ static void vary_records(cf_cloud *p, int pdrf, uint64_t seed)
     }
 }
 
+/* The fields after X Y Z of point formats 6-8, varied for the layered
+ * coder: scanner channels that switch (a channel's first point in a chunk
+ * starts its context from another's), up to 15 returns and odd return
+ * pairs, flags, classes, scan angles, sources, GPS times that repeat,
+ * step and jump per channel, RGB and NIR, extra bytes. */
+static void vary_records14(cf_cloud *p, int pdrf, uint64_t seed)
+{
+    double t_channel[4] = {1e5, 2e5, 3.4e8, -7.0};
+    for (size_t i = 0; i < p->n; i++) {
+        uint8_t *r = p->records + i * p->record_size;
+        uint32_t v = next_random(&seed);
+        unsigned ch = (unsigned)(i / 300 + (v % 7 == 0 ? v >> 3 : 0)) & 3;
+        unsigned nret = v % 11 ? 1 + v % 4 : (v >> 4) % 16, ret = v % 13 ? 1 + (v >> 3) % (nret ? nret : 1) : (v >> 8) % 16;
+        r[14] = (uint8_t)(ret | nret << 4);
+        uint16_t intensity = (uint16_t)(v % 11 ? 300 + (v >> 4) % 50 : v >> 8);
+        memcpy(r + 12, &intensity, 2);
+        r[15] = (uint8_t)((v % 19 ? 0 : (v >> 5) & 15) | ch << 4 | ((v >> 9) & 1) << 6 |
+                          (v % 23 ? 0 : 1) << 7);
+        r[16] = (uint8_t)(v % 9 ? 2 : 6 + (v >> 12) % 30);
+        r[17] = (uint8_t)(v % 17 ? 0 : v >> 20);
+        int16_t angle = (int16_t)(v % 13 ? 0 : (int)(v >> 5) % 30000 - 15000);
+        memcpy(r + 18, &angle, 2);
+        uint16_t source = (uint16_t)(i / 20000 + (v % 101 ? 0 : 7));
+        memcpy(r + 20, &source, 2);
+        if (v % 4)
+            t_channel[ch] += v % 7 ? 1e-5 : 2.5 * (v % 1000);
+        double t = v % 4999 ? t_channel[ch] : -t_channel[ch] * 1e200;
+        memcpy(r + 22, &t, 8);
+        size_t at = 30;
+        if (pdrf >= 7) {
+            uint16_t c[4] = {(uint16_t)v, (uint16_t)v, (uint16_t)v, (uint16_t)(v >> 7)};
+            if (v % 3)
+                c[1] = (uint16_t)(c[0] + (v >> 16) % 300), c[2] = (uint16_t)(v >> 5);
+            memcpy(r + at, c, pdrf == 8 ? 8 : 6);
+            at += pdrf == 8 ? 8 : 6;
+        }
+        for (; at < p->record_size; at++)
+            r[at] = (uint8_t)(i % 2 ? (uint32_t)r[at - 1] + 1 : v >> (at % 24));
+    }
+}
+
 /* Writes p as name (.las or .laz) with h and reads it back into got. */
 static int write_read(const char *name, const wpd_header *h, const cf_cloud *p, cf_cloud *got,
                       wpd_error *err)
@@ -249,8 +290,8 @@ static int write_read(const char *name, const wpd_header *h, const cf_cloud *p, 
 /* Point format pdrf with extra extra bytes, n points. */
 static void check_format(int *failures_, uint8_t pdrf, uint16_t extra, uint32_t n)
 {
-    static const uint16_t standard[] = {20, 28, 26, 34};
-    lt_synth s = {2, pdrf, (uint16_t)(standard[pdrf] + extra), n, 1};
+    static const uint16_t standard[] = {20, 28, 26, 34, 0, 0, 30, 36, 38};
+    lt_synth s = {pdrf >= 6 ? 4 : 2, pdrf, (uint16_t)(standard[pdrf] + extra), n, 1};
     uint8_t *buf = calloc(1, 4096 + (size_t)n * s.record_length);
     char path[1024], las[64], laz[64];
     cf_tmp_path(path, sizeof path, "base.las");
@@ -263,7 +304,12 @@ static void check_format(int *failures_, uint8_t pdrf, uint16_t extra, uint32_t 
         return;
     cf_cloud p, a = {0}, b = {0};
     CHECK(cf_read_all(r, &p, 65536, &err) == 0);
-    vary_records(&p, pdrf, 0x1234567u + pdrf);
+    if (pdrf >= 6) {
+        vary_records(&p, 0, 0x1234567u + pdrf); /* X Y Z */
+        vary_records14(&p, pdrf, 0x7654321u + pdrf);
+    } else {
+        vary_records(&p, pdrf, 0x1234567u + pdrf);
+    }
     snprintf(las, sizeof las, "f%u_%u.las", pdrf, extra);
     snprintf(laz, sizeof laz, "f%u_%u.laz", pdrf, extra);
     int rc = write_read(las, wpd_reader_header(r), &p, &a, &err);
@@ -289,9 +335,21 @@ TEST(laz_writer_gives_the_las_records_formats_0_to_3)
     check_format(failures_, 3, 0, 1); /* one point: a chunk of the raw record only */
 }
 
-TEST(laz_writer_refuses_point_formats_4_to_10)
+TEST(laz_writer_gives_the_las_records_formats_6_to_8)
 {
-    for (uint8_t pdrf = 4; pdrf <= 10; pdrf++) {
+    uint32_t n = 2 * WPD_LAZ_CHUNK_POINTS + 1234;
+    for (uint8_t pdrf = 6; pdrf <= 8; pdrf++) {
+        check_format(failures_, pdrf, 0, pdrf == 6 ? n : 20000);
+        check_format(failures_, pdrf, 5, pdrf == 8 ? n : 3000);
+    }
+    check_format(failures_, 7, 0, 1);
+}
+
+TEST(laz_writer_refuses_waveform_point_formats)
+{
+    static const uint8_t waveform[] = {4, 5, 9, 10};
+    for (size_t i = 0; i < sizeof waveform; i++) {
+        uint8_t pdrf = waveform[i];
         wpd_error err = {0};
         wpd_laz_writer *z = wpd_laz_writer_create("x.laz", pdrf, 80, &err);
         CHECK_MSG(!z && err.code == WPD_E_USAGE && strstr(err.msg, "cannot write LAZ point format"),
