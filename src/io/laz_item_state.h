@@ -186,6 +186,11 @@ int laz_gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why);
  * laz_gpstime_decode. Version 3 is called only for a changed time. */
 void laz_gpstime_encode(gpstime *g, laz_enc *e, const uint8_t *rec);
 
+/* Extra bytes: n previous bytes and n 256-symbol models (also one
+ * scanner channel's context of BYTE14). NULL if out of memory. */
+bytes *laz_bytes_create(uint32_t n);
+void laz_bytes_free(bytes *b);
+
 rgb12 *laz_rgb12_create(void);
 void laz_rgb12_free(rgb12 *c);
 /* Resets the models and takes the 6 bytes at rec as the last colour. */

@@ -396,7 +396,7 @@ void laz_rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out)
 
 /* ---- BYTE (extra bytes) ---- */
 
-static void bytes_free(bytes *b)
+void laz_bytes_free(bytes *b)
 {
     if (!b)
         return;
@@ -408,7 +408,7 @@ static void bytes_free(bytes *b)
     free(b);
 }
 
-static bytes *bytes_create(uint32_t n)
+bytes *laz_bytes_create(uint32_t n)
 {
     bytes *b = calloc(1, sizeof *b);
     if (!b)
@@ -420,7 +420,7 @@ static bytes *bytes_create(uint32_t n)
     for (uint32_t i = 0; i < n && !bad; i++)
         bad = laz_sym_create(&b->m[i], 256);
     if (bad) {
-        bytes_free(b);
+        laz_bytes_free(b);
         return NULL;
     }
     return b;
@@ -454,7 +454,7 @@ void laz_items_free(laz_items *it)
         case LAZ_ITEM_POINT10: point10_free(x->u.p); break;
         case LAZ_ITEM_GPSTIME11: laz_gpstime_free(x->u.g); break;
         case LAZ_ITEM_RGB12: laz_rgb12_free(x->u.c); break;
-        default: bytes_free(x->u.b); break;
+        default: laz_bytes_free(x->u.b); break;
         }
     }
     free(it);
@@ -478,7 +478,7 @@ laz_items *laz_items_create(const wpd_laz_item *list, uint32_t n)
         case LAZ_ITEM_POINT10: made = x->u.p = point10_create(); break;
         case LAZ_ITEM_GPSTIME11: made = x->u.g = laz_gpstime_create(0); break;
         case LAZ_ITEM_RGB12: made = x->u.c = laz_rgb12_create(); break;
-        default: made = x->u.b = bytes_create(list[i].size); break;
+        default: made = x->u.b = laz_bytes_create(list[i].size); break;
         }
         it->n = i + 1;
         if (!made) {

@@ -167,35 +167,6 @@ int laz_color14_encode(color14 *c, laz_layer *layer, unsigned ch, const uint8_t 
 
 /* ---- extra bytes ---- */
 
-static void bytes_context_free(bytes14_context *x, uint32_t n)
-{
-    if (!x)
-        return;
-    if (x->m)
-        for (uint32_t i = 0; i < n; i++)
-            laz_sym_free(&x->m[i]);
-    free(x->m);
-    free(x->last);
-    free(x);
-}
-
-static bytes14_context *bytes_context_create(uint32_t n)
-{
-    bytes14_context *x = calloc(1, sizeof *x);
-    if (!x)
-        return NULL;
-    x->last = malloc(n ? n : 1);
-    x->m = calloc(n ? n : 1, sizeof *x->m);
-    int bad = !x->last || !x->m;
-    for (uint32_t i = 0; i < n && !bad; i++)
-        bad = laz_sym_create(&x->m[i], 256);
-    if (bad) {
-        bytes_context_free(x, n);
-        return NULL;
-    }
-    return x;
-}
-
 bytes14 *laz_bytes14_create(uint32_t n)
 {
     bytes14 *b = calloc(1, sizeof *b);
@@ -209,15 +180,15 @@ void laz_bytes14_free(bytes14 *b)
     if (!b)
         return;
     for (int i = 0; i < 4; i++)
-        bytes_context_free(b->ctx[i], b->n);
+        laz_bytes_free(b->ctx[i]);
     free(b);
 }
 
 static int bytes_context(bytes14 *b, unsigned ch, const uint8_t *last)
 {
-    if (!b->ctx[ch] && !(b->ctx[ch] = bytes_context_create(b->n)))
+    if (!b->ctx[ch] && !(b->ctx[ch] = laz_bytes_create(b->n)))
         return -1;
-    bytes14_context *x = b->ctx[ch];
+    bytes *x = b->ctx[ch];
     for (uint32_t i = 0; i < b->n; i++)
         laz_sym_reset(&x->m[i]);
     memmove(x->last, last, b->n);
@@ -235,7 +206,7 @@ int laz_bytes14_start(bytes14 *b, unsigned ch, const uint8_t *rec)
 /* As color_switch: *last is the previous values that predict. */
 static int bytes_switch(bytes14 *b, unsigned ch, uint8_t **last)
 {
-    bytes14_context *prev = b->ctx[b->current];
+    bytes *prev = b->ctx[b->current];
     *last = prev->last;
     if (ch == b->current)
         return 0;

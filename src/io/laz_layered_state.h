@@ -78,16 +78,12 @@ typedef struct color14 {
     color14_context *ctx[4];
 } color14;
 
-/* Extra bytes (BYTE14): one layer and one model per byte. */
-typedef struct bytes14_context {
-    uint8_t *last;
-    laz_sym *m;
-} bytes14_context;
-
+/* Extra bytes (BYTE14): one layer and one model per byte; a context is
+ * the point-wise BYTE item's state (previous bytes and models). */
 typedef struct bytes14 {
     uint32_t n;
     uint32_t current, used;
-    bytes14_context *ctx[4];
+    bytes *ctx[4];
 } bytes14;
 
 /* Contexts by return (LAZ specification tables): the return map m

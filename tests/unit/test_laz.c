@@ -366,25 +366,39 @@ static size_t laszip_payload(const uint8_t *b, size_t len)
     return 0;
 }
 
+/* Loads ../shared/data/laz/name into *b (and a scratch copy's room *m),
+ * with the LASzip VLR payload's offset in *v. 0 when there is no data
+ * folder (the test passes unchecked there) or it cannot be loaded (a
+ * failure). */
+static int load_laz(int *failures_, const char *name, uint8_t **b, uint8_t **m, size_t *len,
+                    size_t *v)
+{
+    const char *data = test_data_dir();
+    if (!data)
+        return 0;
+    char laz[1024];
+    snprintf(laz, sizeof laz, "%.900s/laz/%s", data, name);
+    *b = slurp(laz, len);
+    *m = *b ? malloc(*len) : NULL;
+    *v = *b ? laszip_payload(*b, *len) : 0;
+    if (!*b || !*m || !*v) {
+        CHECK_MSG(0, "cannot load %s", laz);
+        free(*b), free(*m);
+        return 0;
+    }
+    return 1;
+}
+
 /* Damage to a layered chunk (laspy_append-bug.laz: 1 chunk, record 41
  * bytes, 14 layers): byte counts that pass the chunk, a point count that
  * contradicts the table, a corrupt layer, a cut file, unknown item
  * versions and waveform items: one line naming the file each. */
 TEST(laz_layered_damaged)
 {
-    const char *data = test_data_dir();
-    if (!data)
+    size_t len, v;
+    uint8_t *b, *m;
+    if (!load_laz(failures_, "laspy_append-bug.laz", &b, &m, &len, &v))
         return;
-    char laz[1024];
-    snprintf(laz, sizeof laz, "%.900s/laz/laspy_append-bug.laz", data);
-    size_t len;
-    uint8_t *b = slurp(laz, &len), *m = malloc(len);
-    size_t v = b ? laszip_payload(b, len) : 0;
-    if (!b || !m || !v) {
-        CHECK_MSG(0, "cannot load %s", laz);
-        free(b), free(m);
-        return;
-    }
     uint32_t off;
     memcpy(&off, b + 96, 4);
     size_t count_at = off + 8 + 41, sizes_at = count_at + 4, layers_at = sizes_at + 14 * 4;
@@ -415,19 +429,10 @@ TEST(laz_layered_damaged)
 /* A LASzip VLR that contradicts the header or names what is unknown. */
 TEST(laz_bad_vlr)
 {
-    const char *data = test_data_dir();
-    if (!data)
+    size_t len, v;
+    uint8_t *b, *m;
+    if (!load_laz(failures_, "lazperf_point-color.laz", &b, &m, &len, &v))
         return;
-    char laz[1024];
-    snprintf(laz, sizeof laz, "%.900s/laz/lazperf_point-color.laz", data);
-    size_t len;
-    uint8_t *b = slurp(laz, &len), *m = malloc(len);
-    size_t v = b ? laszip_payload(b, len) : 0;
-    if (!b || !m || !v) {
-        CHECK_MSG(0, "cannot load %s", laz);
-        free(b), free(m);
-        return;
-    }
     struct { const char *name; size_t at; uint16_t value; const char *expect; } cases[] = {
         {"compressor.laz", 0, 7, "unknown LAZ compressor 7"},
         {"coder.laz", 2, 1, "unknown LAZ coder 1"},
