@@ -241,7 +241,12 @@ uint32_t laz_dec_symbol(laz_dec *d, laz_sym *m)
     if (m->table) {
         uint32_t dv = d->value / (d->length >>= LAZ_DM_LENGTH_SHIFT);
         uint32_t t = dv >> m->table_shift;
-        /* dv < 2^15 while value < length, which every step keeps. */
+        /* dv < 2^15 while value < length, which every step of a valid
+         * stream keeps; raw bits of a corrupt one can break it (a quotient
+         * of 2^n in dec_raw), so t is bounded: garbage out, caught by the
+         * chunk's end checks, never a read outside the table. */
+        if (t > m->table_size)
+            t = m->table_size;
         sym = m->table[t];
         uint32_t n = m->table[t + 1] + 1;
         while (n > sym + 1) { /* bisection inside the table's bracket */

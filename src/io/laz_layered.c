@@ -165,6 +165,8 @@ static int load_layers(laz_layered *L, laz_in *in, uint64_t load, const char **w
         at += y->size;
     }
     if (in->overrun) {
+        for (uint32_t i = 0; i < L->nlayers; i++)
+            L->layer[i].active = 0; /* no stream was opened */
         *why = "the data end inside the chunk (file truncated?)";
         return -1;
     }

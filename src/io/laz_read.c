@@ -170,12 +170,14 @@ static int open_layered(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *e
     uint64_t limit = z->nchunks ? z->start[z->chunk + 1] : z->data_end;
     uint32_t count;
     int rc = laz_layered_open(z->layered, &z->in, limit, z->record_length, rec, &count, &why);
+    uint64_t table_count = z->chunk_left;
+    z->chunk_left = 0; /* until it opened: a read after a failure opens it again */
     if (rc == -2)
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for a LAZ chunk", r->hdr.path);
     if (rc)
         return fail_chunk(r, z, why, err);
     uint64_t left = r->hdr.point_count - z->next;
-    if (z->nchunks ? count != z->chunk_left : (!count || count > left))
+    if (z->nchunks ? count != table_count : (!count || count > left))
         return fail_chunk(r, z, "its point count does not match the chunk table or header", err);
     z->chunk_left = count;
     return 0;
