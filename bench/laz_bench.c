@@ -1,6 +1,6 @@
 /* laz_bench.c - decode speed of the LAZ reader (issue 13).
  *
- *   laz_bench FILE [THREADS] [REPEAT]
+ *   laz_bench FILE [THREADS] [REPEAT] [xyz]
  *
  * Opens FILE (LAZ or LAS) once per thread, gives each thread an equal
  * share of the point indices (wpd_reader_seek_range: a LAZ reader decodes
@@ -9,12 +9,15 @@
  * twice) and reads every point in 50,000-point batches. Prints the best
  * of REPEAT (default 5) runs in M points/s. THREADS defaults to 1; more
  * than 1 needs a file that can seek (a LAZ file with a chunk table).
+ * "xyz" reads positions only (wpd_reader_positions_only: layered LAZ then
+ * decodes only its X, Y and Z layers).
  */
 #include "io/reader.h"
 
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 static double now(void)
@@ -26,7 +29,7 @@ static double now(void)
 
 /* Reads points [from, to) of path; returns the count or -1. */
 static long long read_share(const char *path, unsigned long long from, unsigned long long to,
-                            int seek)
+                            int seek, int xyz)
 {
     wpd_error err;
     wpd_reader *r = wpd_reader_open(path, &err);
@@ -42,6 +45,8 @@ static long long read_share(const char *path, unsigned long long from, unsigned 
         wpd_reader_close(r);
         return -1;
     }
+    if (xyz)
+        wpd_reader_positions_only(r, 1);
     while ((got = wpd_reader_read(r, &b, &err)) > 0)
         n += got;
     if (got < 0)
@@ -52,7 +57,7 @@ static long long read_share(const char *path, unsigned long long from, unsigned 
 }
 
 /* One run on threads threads: the seconds it took, or -1. */
-static double run(const char *path, unsigned long long count, int threads)
+static double run(const char *path, unsigned long long count, int threads, int xyz)
 {
     double t0 = now();
     long long total = 0;
@@ -61,7 +66,7 @@ static double run(const char *path, unsigned long long count, int threads)
     for (int t = 0; t < threads; t++) {
         unsigned long long from = count * (unsigned long long)t / (unsigned long long)threads;
         unsigned long long to = count * (unsigned long long)(t + 1) / (unsigned long long)threads;
-        long long n = read_share(path, from, to, threads > 1);
+        long long n = read_share(path, from, to, threads > 1, xyz);
         if (n < 0)
             bad++;
         else
@@ -79,6 +84,7 @@ int main(int argc, char **argv)
         return 1;
     }
     int threads = argc > 2 ? atoi(argv[2]) : 1, repeat = argc > 3 ? atoi(argv[3]) : 5;
+    int xyz = argc > 4 && !strcmp(argv[4], "xyz");
     wpd_error err;
     wpd_reader *r = wpd_reader_open(argv[1], &err);
     if (!r) {
@@ -94,13 +100,14 @@ int main(int argc, char **argv)
     }
     double best = 1e30;
     for (int i = 0; i < repeat; i++) {
-        double s = run(argv[1], count, threads);
+        double s = run(argv[1], count, threads, xyz);
         if (s < 0)
             return 2;
         if (s < best)
             best = s;
     }
-    printf("%s: %llu points, %d thread%s, best of %d: %.4f s, %.2f M points/s\n", argv[1], count,
-           threads, threads > 1 ? "s" : "", repeat, best, (double)count / best / 1e6);
+    printf("%s: %llu points, %d thread%s%s, best of %d: %.4f s, %.2f M points/s\n", argv[1],
+           count, threads, threads > 1 ? "s" : "", xyz ? ", positions only" : "", repeat, best,
+           (double)count / best / 1e6);
     return 0;
 }

@@ -13,7 +13,7 @@
 static const char *usage_text =
     "usage: wpd convert [--ascii] [--force] IN... OUT\n"
     "Streams the points of IN (several inputs are read as one cloud) into OUT,\n"
-    "whose format comes from its extension (.las or .ply). Every attribute is\n"
+    "whose format comes from its extension (.las, .laz or .ply). Every attribute is\n"
     "kept: LAS to LAS keeps version, point format and VLRs; LAS to PLY writes\n"
     "x y z as double and every LAS dimension as a named property; PLY to LAS\n"
     "maps colour, intensity and classification and keeps the rest as extra\n"
@@ -49,7 +49,7 @@ static int convert(char **inputs, int n, const char *output, wpd_write_options *
 {
     wpd_format fmt = wpd_format_from_name(output);
     if (fmt == WPD_FMT_NONE)
-        return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las or .ply", output);
+        return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las, .laz or .ply", output);
     if (wpd_path_is_one_of(output, inputs, n))
         return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", output);
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, n, err);

@@ -118,6 +118,11 @@ static void json_laz(const wpd_laz_info *z)
     fputs("]}", stdout);
 }
 
+static void json_copc(const wpd_las_info *l)
+{
+    printf(", \"copc\": %s", l->copc ? "true" : "false");
+}
+
 static void print_text(const wpd_header *h, const wpd_bounds *b, uint64_t dropped)
 {
     printf("%s\n", h->path);
@@ -128,6 +133,9 @@ static void print_text(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
                l->record_length, l->extra_bytes);
         if (l->laz.compressed)
             text_laz(&l->laz);
+        if (l->copc)
+            printf("  COPC:             yes; its info VLR and hierarchy EVLR index this file's "
+                   "chunks and are not carried over\n");
     } else {
         printf("  format:           PLY %s\n", ply_encoding_name(h->ply.encoding));
     }
@@ -265,6 +273,7 @@ static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
         json_vlrs("evlrs", l->evlrs, l->nevlr);
         if (l->laz.compressed)
             json_laz(&l->laz);
+        json_copc(l);
     } else {
         printf(", \"encoding\": \"%s\", \"elements\": [", ply_encoding_name(h->ply.encoding));
         for (uint32_t i = 0; i < h->ply.nelements; i++) {

@@ -31,7 +31,7 @@ static const char *usage_text =
     "Resamples the points of IN (several inputs are one cloud) to exactly N points\n"
     "with even, isotropic spacing (Weighted Poisson-disk resampling), keeping every\n"
     "attribute of each selected point; coordinates move by the tangent smoothing.\n"
-    "  -o, --output FILE     output (.las or .ply); must not exist unless --force\n"
+    "  -o, --output FILE     output (.las, .laz or .ply); must not exist unless --force\n"
     "      --per-input DIR   instead of -o: one output per input file in DIR (same\n"
     "                        name), holding the resampled points that fall in it;\n"
     "                        the outputs appear together when all are complete\n"
@@ -291,7 +291,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         return -1;
     }
     if (o->output && wpd_format_from_name(o->output) == WPD_FMT_NONE) {
-        fprintf(stderr, "wpd resample: %s: output must end in .las or .ply\n", o->output);
+        fprintf(stderr, "wpd resample: %s: output must end in .las, .laz or .ply\n", o->output);
         return -1;
     }
     *first_input = optind;

@@ -39,7 +39,7 @@ static int plan_output(const wpd_selection *sel, const wpd_bounds *box, const wp
     wpd_bounds bounds = *box;
     wpd_format fmt = wpd_format_from_name(path);
     if (fmt == WPD_FMT_NONE)
-        return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las or .ply", path);
+        return wpd_fail(err, WPD_E_USAGE, "%s: output must end in .las, .laz or .ply", path);
     if (wpd_layout_plan(in, &bounds, fmt, out, map, err))
         return -1;
     if (sel->moved && needs_wider_coordinates(out, &bounds, sel->precision) &&

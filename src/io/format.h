@@ -16,6 +16,9 @@ typedef struct wpd_reader_ops {
     int (*seek)(wpd_reader *r, uint64_t index, wpd_error *err);
     /* Frees r->impl (not the header, not the fd). */
     void (*close)(wpd_reader *r);
+    /* NULL when reading positions only saves nothing. Same contract as
+     * wpd_reader_positions_only. */
+    int (*positions_only)(wpd_reader *r, int on);
 } wpd_reader_ops;
 
 struct wpd_reader {

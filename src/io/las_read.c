@@ -4,8 +4,9 @@
  * against the file size before anything is allocated or looped over. Points
  * are fixed-size records, so the reader streams them with pread(2) straight
  * into the batch and can start at any record index. LAZ (compressed LAS)
- * headers and VLRs are read here, the points by laz_read.c; COPC VLRs in
- * uncompressed files are refused.
+ * headers and VLRs are read here, the points by laz_read.c. The COPC info
+ * VLR and hierarchy EVLR are dropped (las.copc says so): they index the
+ * input's chunks and mean nothing in any file written from its points.
  */
 #include "io/format.h"
 #include "io/las_internal.h"
@@ -118,14 +119,18 @@ static uint64_t evlr_start_field(const wpd_las_info *las, const uint8_t *h)
     return las->version_minor >= 4 ? las_get_u64(h + LAS_OFF_EVLR_START) : 0;
 }
 
-/* COPC in an uncompressed file: a COPC file is LAZ (laz_read.c reads or
- * refuses it); its VLR without compression is a contradiction. */
-static int fail_copc(wpd_reader *r, wpd_error *err)
+/* Takes record i out of list (n records), freeing its payload. */
+static void drop_record(wpd_vlr *list, uint32_t *n, uint32_t i)
 {
-    return wpd_fail(err, WPD_E_INPUT,
-                    "%s: COPC (cloud-optimized compressed LAS) is not supported; "
-                    "decompress it first (e.g. with laszip or pdal translate)",
-                    r->hdr.path);
+    free(list[i].data);
+    memmove(list + i, list + i + 1, (*n - i - 1) * sizeof *list);
+    --*n;
+}
+
+/* The COPC info VLR ("copc", 1) and hierarchy EVLR ("copc", 1000). */
+static int is_copc(const wpd_vlr *v, uint16_t record)
+{
+    return !strcmp(v->user_id, "copc") && v->record_id == record;
 }
 
 /* Checks header size (at least standard bytes), point offset, PDRF, record
@@ -366,9 +371,7 @@ static int take_laszip_vlr(wpd_reader *r, uint32_t i, wpd_error *err)
                         r->hdr.path);
     if (wpd_laz_parse_vlr(r->hdr.path, v->data, v->length, &las->laz, err))
         return -1;
-    free(v->data);
-    memmove(v, v + 1, (las->nvlr - i - 1) * sizeof *v);
-    las->nvlr--;
+    drop_record(las->vlrs, &las->nvlr, i);
     return 0;
 }
 
@@ -390,8 +393,11 @@ static int read_vlrs(wpd_reader *r, wpd_error *err)
     int laszip = 0;
     for (uint32_t i = 0; i < las->nvlr; i++) {
         const wpd_vlr *v = &las->vlrs[i];
-        if (!strcmp(v->user_id, "copc") && !las->laz.compressed)
-            return fail_copc(r, err);
+        if (is_copc(v, 1)) {
+            las->copc = 1;
+            drop_record(las->vlrs, &las->nvlr, i--);
+            continue;
+        }
         if (!strcmp(v->user_id, WPD_LAZ_VLR_USER) && v->record_id == WPD_LAZ_VLR_RECORD) {
             if (laszip++)
                 return wpd_fail(err, WPD_E_INPUT, "%s: two LASzip VLRs (LAZ)", r->hdr.path);
@@ -477,6 +483,9 @@ static int read_evlrs(wpd_reader *r, uint64_t evlr_start, uint64_t points_end,
     }
     las->nevlr = e.count;
     *claimed = stop - e.start;
+    for (uint32_t i = 0; i < las->nevlr; i++)
+        if (is_copc(&las->evlrs[i], 1000))
+            drop_record(las->evlrs, &las->nevlr, i--);
     return 0;
 }
 
@@ -610,7 +619,7 @@ static void las_close(wpd_reader *r)
     r->impl = NULL;
 }
 
-static const wpd_reader_ops las_reader_ops = {las_read, las_seek, las_close};
+static const wpd_reader_ops las_reader_ops = {las_read, las_seek, las_close, NULL};
 
 int wpd_las_open_reader(wpd_reader *r, wpd_error *err)
 {

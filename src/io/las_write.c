@@ -12,6 +12,7 @@
  */
 #include "io/format.h"
 #include "io/las_internal.h"
+#include "io/laz.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -34,6 +35,7 @@ typedef struct las_writer {
     double scale[3], offset[3];
     int32_t qmin[3], qmax[3];     /* bounds of the quantised coordinates */
     uint64_t by_return[16];       /* index = return number (0 not counted) */
+    wpd_laz_writer *laz;          /* LAZ output: compresses the records; else NULL */
 } las_writer;
 
 static const char axis_name[3] = {'x', 'y', 'z'};
@@ -76,8 +78,10 @@ static void encode_header(const wpd_writer *w, const las_writer *L, const header
     las_put_u16(h + LAS_OFF_YEAR, las->creation_year);
     las_put_u16(h + LAS_OFF_HEADER_SIZE, L->header_size);
     las_put_u32(h + LAS_OFF_POINT_OFFSET, L->offset_to_points);
-    las_put_u32(h + LAS_OFF_NVLR, las->nvlr);
-    h[LAS_OFF_PDRF] = las->pdrf;
+    /* LAZ: the LASzip VLR is one more, and bit 7 of the point format marks
+     * the records as compressed. */
+    las_put_u32(h + LAS_OFF_NVLR, las->nvlr + (L->laz ? 1 : 0));
+    h[LAS_OFF_PDRF] = (uint8_t)(las->pdrf | (L->laz ? 0x80 : 0));
     las_put_u16(h + LAS_OFF_RECORD_LENGTH, (uint16_t)L->record_length);
     /* LAS 1.4: the legacy counts are 0 for PDRF 6-10 and for counts that do
      * not fit in 32 bits; earlier versions have only the legacy fields. */
@@ -175,7 +179,9 @@ static int flush_buffer(wpd_writer *w, las_writer *L, wpd_error *err)
 {
     if (!L->buf_len)
         return 0;
-    int rc = wpd_outfile_write(&w->out, L->buf, L->buf_len, err);
+    int rc = L->laz ? wpd_laz_writer_put(L->laz, &w->out, L->buf, L->buf_len / L->record_length,
+                                         err)
+                    : wpd_outfile_write(&w->out, L->buf, L->buf_len, err);
     L->buf_len = 0;
     return rc;
 }
@@ -266,6 +272,8 @@ static int las_finish(wpd_writer *w, wpd_error *err)
     if (flush_buffer(w, L, err))
         return -1;
     uint64_t points_end = L->offset_to_points + w->count * L->record_length;
+    if (L->laz && wpd_laz_writer_finish(L->laz, &w->out, L->offset_to_points, &points_end, err))
+        return -1;
     if (write_evlrs(w, points_end, &t, err))
         return -1;
     for (int a = 0; a < 3 && w->count; a++) {
@@ -278,8 +286,10 @@ static int las_finish(wpd_writer *w, wpd_error *err)
 static void las_close_writer(wpd_writer *w)
 {
     las_writer *L = w->impl;
-    if (L)
+    if (L) {
         free(L->buf);
+        wpd_laz_writer_free(L->laz);
+    }
     free(L);
     w->impl = NULL;
 }
@@ -339,12 +349,18 @@ static const uint8_t *vlr_tail(const wpd_las_info *las, uint32_t *len)
     return las10_signature;
 }
 
-/* Bytes before the first point record; -1 if beyond the 32-bit offset field. */
-static int64_t prelude_size(const wpd_las_info *las, uint16_t header_size)
+/* Bytes before the first point record (LAZ: before the chunk table
+ * offset); -1 if beyond the 32-bit offset field. */
+static int64_t prelude_size(const wpd_las_info *las, const las_writer *L)
 {
-    uint64_t size = header_size;
+    uint64_t size = L->header_size;
     for (uint32_t i = 0; i < las->nvlr; i++)
         size += LAS_VLR_HEADER_SIZE + las->vlrs[i].length;
+    if (L->laz) {
+        wpd_vlr laszip;
+        wpd_laz_writer_vlr(L->laz, &laszip);
+        size += LAS_VLR_HEADER_SIZE + laszip.length;
+    }
     uint32_t tail;
     vlr_tail(las, &tail);
     size += tail;
@@ -389,7 +405,11 @@ int wpd_las_open_writer(wpd_writer *w, wpd_error *err)
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", w->out.final_path);
     w->impl = L;
     w->ops = &las_writer_ops;
-    int64_t prelude = prelude_size(las, L->header_size);
+    if (las->laz.compressed &&
+        !(L->laz = wpd_laz_writer_create(w->out.final_path, las->pdrf,
+                                         (uint16_t)record_length, err)))
+        return -1;
+    int64_t prelude = prelude_size(las, L);
     if (prelude < 0)
         return wpd_fail(err, WPD_E_USAGE, "%s: the VLRs do not fit before the point data "
                         "(more than 4 GiB)", w->out.final_path);
@@ -402,7 +422,15 @@ int wpd_las_open_writer(wpd_writer *w, wpd_error *err)
     for (uint32_t i = 0; i < las->nvlr; i++)
         if (write_vlr(w, &las->vlrs[i], 0, err))
             return -1;
+    if (L->laz) {
+        wpd_vlr laszip;
+        wpd_laz_writer_vlr(L->laz, &laszip);
+        if (write_vlr(w, &laszip, 0, err))
+            return -1;
+    }
     uint32_t tail_len;
     const uint8_t *tail = vlr_tail(las, &tail_len);
-    return tail_len ? wpd_outfile_write(&w->out, tail, tail_len, err) : 0;
+    if (tail_len && wpd_outfile_write(&w->out, tail, tail_len, err))
+        return -1;
+    return L->laz ? wpd_laz_writer_begin(L->laz, &w->out, err) : 0;
 }

@@ -353,11 +353,17 @@ int wpd_layout_widen_coordinates(const wpd_header *in, wpd_header *out, wpd_layo
 wpd_format wpd_format_from_name(const char *path)
 {
     const char *dot = strrchr(path, '.');
-    if (dot && !strcasecmp(dot, ".las"))
+    if (dot && (!strcasecmp(dot, ".las") || !strcasecmp(dot, ".laz")))
         return WPD_FMT_LAS;
     if (dot && !strcasecmp(dot, ".ply"))
         return WPD_FMT_PLY;
     return WPD_FMT_NONE;
+}
+
+int wpd_format_is_laz_name(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    return dot && !strcasecmp(dot, ".laz");
 }
 
 int wpd_layout_plan(const wpd_header *in, const wpd_bounds *bounds, wpd_format fmt,

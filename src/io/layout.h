@@ -32,9 +32,12 @@ typedef struct wpd_layout_map {
     wpd_field_map fields[WPD_MAX_DIMS];
 } wpd_layout_map;
 
-/* Output format from a file name's extension (.las, .ply, any case);
- * WPD_FMT_NONE for anything else. */
+/* Output format from a file name's extension (.las, .laz, .ply, any case;
+ * LAZ is compressed LAS: WPD_FMT_LAS); WPD_FMT_NONE for anything else. */
 wpd_format wpd_format_from_name(const char *path);
+
+/* 1 when path ends in .laz (any case): a LAS output written compressed. */
+int wpd_format_is_laz_name(const char *path);
 
 /* Fills out (a complete header for wpd_writer_open, owning its memory) and
  * map for writing the points of `in` as format fmt. bounds are those of the

@@ -10,6 +10,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
+#include "common/outfile.h"
 #include "io/schema.h"
 
 /* The LASzip VLR's identity. */
@@ -34,5 +35,45 @@ int wpd_laz_parse_vlr(const char *path, const uint8_t *data, uint64_t len, wpd_l
  * 6-10), LASzip 1.x items (version 1), waveform packets, unknown coders,
  * compressors, item types or versions. Returns 0 or -1 (WPD_E_INPUT). */
 int wpd_laz_check(const wpd_header *h, wpd_error *err);
+
+/* ---- writing (laz_write.c): the point-wise chunked compressor ---- */
+
+/* Points per chunk of the LAZ files wpd writes (LASzip's default). */
+#define WPD_LAZ_CHUNK_POINTS 50000u
+
+/* Compresses the point records of a LAS writer. The LAS writer does the
+ * header, the VLRs (adding the one of wpd_laz_writer_vlr) and the EVLRs;
+ * this writes what lies between: the chunk table offset, the chunks and
+ * the chunk table. */
+typedef struct wpd_laz_writer wpd_laz_writer;
+
+/* For records of point format pdrf, record_length bytes (>= the format's
+ * size; the rest are extra bytes). path names the output in messages and
+ * must outlive the writer. Returns NULL with err set: WPD_E_USAGE (one
+ * line) for point formats 4, 5, 9 and 10 (waveform packets), which are not
+ * compressed; WPD_E_MEMORY. Formats 6-8 use the layered compressor. */
+wpd_laz_writer *wpd_laz_writer_create(const char *path, uint8_t pdrf, uint16_t record_length,
+                                      wpd_error *err);
+void wpd_laz_writer_free(wpd_laz_writer *z);
+
+/* The LASzip VLR describing the items, for the output's VLR list: *v
+ * points into z (valid while z lives; v->data must not be freed). */
+void wpd_laz_writer_vlr(const wpd_laz_writer *z, wpd_vlr *v);
+
+/* Writes the start of the point data (the placeholder of the chunk table
+ * offset) at f's position, which must be the header's offset to points. */
+int wpd_laz_writer_begin(wpd_laz_writer *z, wpd_outfile *f, wpd_error *err);
+
+/* Compresses n records (rec, record_length bytes each), writing each chunk
+ * to f as it fills. Returns 0, or -1 with err set. */
+int wpd_laz_writer_put(wpd_laz_writer *z, wpd_outfile *f, const uint8_t *rec, size_t n,
+                       wpd_error *err);
+
+/* Writes the last chunk and the chunk table, and patches the table's
+ * offset at points_start (the header's offset to points). *end gets the
+ * file offset after the table, where EVLRs may follow. Returns 0, or -1
+ * with err set. */
+int wpd_laz_writer_finish(wpd_laz_writer *z, wpd_outfile *f, uint64_t points_start,
+                          uint64_t *end, wpd_error *err);
 
 #endif

@@ -7,16 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Format constants (LAZ specification, "arithmetic coder"): the interval
- * is renormalised below 2^24; bit models keep probabilities in 13 bits and
- * symbol models their distributions in 15 bits. */
-enum {
-    AC_MIN_LENGTH = 0x01000000u,
-    BM_LENGTH_SHIFT = 13,
-    BM_MAX_COUNT = 1u << BM_LENGTH_SHIFT,
-    DM_LENGTH_SHIFT = 15,
-    DM_MAX_COUNT = 1u << DM_LENGTH_SHIFT,
-};
 
 /* ---- byte source ---- */
 
@@ -79,8 +69,26 @@ uint8_t laz_in_refill(laz_in *in)
 
 void laz_in_bytes(laz_in *in, uint8_t *dst, size_t n)
 {
-    for (size_t i = 0; i < n; i++)
-        dst[i] = laz_in_byte(in);
+    while (n) { /* whole buffered runs at a time; the refill does the rest */
+        size_t run = (size_t)(in->end - in->cur);
+        if (!run) {
+            *dst++ = laz_in_refill(in);
+            n--;
+            continue;
+        }
+        run = run < n ? run : n;
+        memcpy(dst, in->cur, run);
+        in->cur += run, dst += run, n -= run;
+    }
+}
+
+void laz_in_memory(laz_in *in, const uint8_t *data, size_t n)
+{
+    memset(in, 0, sizeof *in);
+    in->fd = -1;
+    in->cur = data;
+    in->end = data + n;
+    in->end_off = in->limit = n;
 }
 
 /* ---- arithmetic decoder ---- */
@@ -100,29 +108,29 @@ static inline void renorm(laz_dec *d)
 {
     do {
         d->value = (d->value << 8) | laz_in_byte(d->in);
-    } while ((d->length <<= 8) < AC_MIN_LENGTH);
+    } while ((d->length <<= 8) < LAZ_AC_MIN_LENGTH);
 }
 
 void laz_bit_init(laz_bit *m)
 {
     m->bit_0_count = 1;
     m->bit_count = 2;
-    m->bit_0_prob = 1u << (BM_LENGTH_SHIFT - 1);
+    m->bit_0_prob = 1u << (LAZ_BM_LENGTH_SHIFT - 1);
     m->update_cycle = m->bits_until_update = 4;
 }
 
 /* Rescales the probability of a 0 from the counts; counts are halved when
  * they pass the maximum, and updates get rarer as the model settles. */
-static void bit_update(laz_bit *m)
+void laz_bit_update(laz_bit *m)
 {
-    if ((m->bit_count += m->update_cycle) > BM_MAX_COUNT) {
+    if ((m->bit_count += m->update_cycle) > LAZ_BM_MAX_COUNT) {
         m->bit_count = (m->bit_count + 1) >> 1;
         m->bit_0_count = (m->bit_0_count + 1) >> 1;
         if (m->bit_0_count == m->bit_count)
             ++m->bit_count;
     }
     uint32_t scale = 0x80000000u / m->bit_count;
-    m->bit_0_prob = (m->bit_0_count * scale) >> (31 - BM_LENGTH_SHIFT);
+    m->bit_0_prob = (m->bit_0_count * scale) >> (31 - LAZ_BM_LENGTH_SHIFT);
     m->update_cycle = (5 * m->update_cycle) >> 2;
     if (m->update_cycle > 64)
         m->update_cycle = 64;
@@ -131,7 +139,7 @@ static void bit_update(laz_bit *m)
 
 uint32_t laz_dec_bit(laz_dec *d, laz_bit *m)
 {
-    uint32_t x = m->bit_0_prob * (d->length >> BM_LENGTH_SHIFT);
+    uint32_t x = m->bit_0_prob * (d->length >> LAZ_BM_LENGTH_SHIFT);
     uint32_t sym = d->value >= x;
     if (!sym) {
         d->length = x;
@@ -140,19 +148,19 @@ uint32_t laz_dec_bit(laz_dec *d, laz_bit *m)
         d->value -= x;
         d->length -= x;
     }
-    if (d->length < AC_MIN_LENGTH)
+    if (d->length < LAZ_AC_MIN_LENGTH)
         renorm(d);
     if (--m->bits_until_update == 0)
-        bit_update(m);
+        laz_bit_update(m);
     return sym;
 }
 
 /* Recomputes the cumulative distribution (15-bit fixed point) from the
  * counts and, for large models, the table mapping the top bits of a
  * scaled value to the first candidate symbol. */
-static void sym_update(laz_sym *m)
+void laz_sym_update(laz_sym *m)
 {
-    if ((m->total += m->update_cycle) > DM_MAX_COUNT) {
+    if ((m->total += m->update_cycle) > LAZ_DM_MAX_COUNT) {
         m->total = 0;
         for (uint32_t n = 0; n < m->n; n++)
             m->total += (m->count[n] = (m->count[n] + 1) >> 1);
@@ -160,7 +168,7 @@ static void sym_update(laz_sym *m)
     uint32_t sum = 0, s = 0;
     uint32_t scale = 0x80000000u / m->total;
     for (uint32_t k = 0; k < m->n; k++) {
-        m->distribution[k] = (scale * sum) >> (31 - DM_LENGTH_SHIFT);
+        m->distribution[k] = (scale * sum) >> (31 - LAZ_DM_LENGTH_SHIFT);
         sum += m->count[k];
         if (m->table_size) {
             uint32_t w = m->distribution[k] >> m->table_shift;
@@ -193,7 +201,7 @@ static int sym_alloc(laz_sym *m, uint32_t n)
         while (n > (1u << (bits + 2)))
             ++bits;
         m->table_size = 1u << bits;
-        m->table_shift = DM_LENGTH_SHIFT - bits;
+        m->table_shift = LAZ_DM_LENGTH_SHIFT - bits;
     }
     size_t words = 2 * (size_t)n + (m->table_size ? m->table_size + 2 : 0);
     if (!(m->distribution = malloc(words * sizeof(uint32_t))))
@@ -217,7 +225,7 @@ void laz_sym_reset(laz_sym *m)
         m->count[k] = 1;
     m->total = 0;
     m->update_cycle = m->n;
-    sym_update(m);
+    laz_sym_update(m);
     m->until_update = m->update_cycle = (m->n + 6) >> 1;
 }
 
@@ -231,9 +239,14 @@ uint32_t laz_dec_symbol(laz_dec *d, laz_sym *m)
 {
     uint32_t sym, x, y = d->length;
     if (m->table) {
-        uint32_t dv = d->value / (d->length >>= DM_LENGTH_SHIFT);
+        uint32_t dv = d->value / (d->length >>= LAZ_DM_LENGTH_SHIFT);
         uint32_t t = dv >> m->table_shift;
-        /* dv < 2^15 while value < length, which every step keeps. */
+        /* dv < 2^15 while value < length, which every step of a valid
+         * stream keeps; raw bits of a corrupt one can break it (a quotient
+         * of 2^n in dec_raw), so t is bounded: garbage out, caught by the
+         * chunk's end checks, never a read outside the table. */
+        if (t > m->table_size)
+            t = m->table_size;
         sym = m->table[t];
         uint32_t n = m->table[t + 1] + 1;
         while (n > sym + 1) { /* bisection inside the table's bracket */
@@ -249,7 +262,7 @@ uint32_t laz_dec_symbol(laz_dec *d, laz_sym *m)
     } else {
         uint32_t n = m->n, k = n >> 1;
         x = sym = 0;
-        d->length >>= DM_LENGTH_SHIFT;
+        d->length >>= LAZ_DM_LENGTH_SHIFT;
         do {
             uint32_t z = d->length * m->distribution[k];
             if (z > d->value) {
@@ -263,11 +276,11 @@ uint32_t laz_dec_symbol(laz_dec *d, laz_sym *m)
     }
     d->value -= x;
     d->length = y - x;
-    if (d->length < AC_MIN_LENGTH)
+    if (d->length < LAZ_AC_MIN_LENGTH)
         renorm(d);
     ++m->count[sym];
     if (--m->until_update == 0)
-        sym_update(m);
+        laz_sym_update(m);
     return sym;
 }
 
@@ -276,7 +289,7 @@ static uint32_t dec_raw(laz_dec *d, unsigned n)
 {
     uint32_t sym = d->value / (d->length >>= n);
     d->value -= d->length * sym;
-    if (d->length < AC_MIN_LENGTH)
+    if (d->length < LAZ_AC_MIN_LENGTH)
         renorm(d);
     return sym;
 }
@@ -358,26 +371,16 @@ void laz_ic_free(laz_ic *ic)
     memset(ic, 0, sizeof *ic);
 }
 
-/* Model m (stamp index i), reset first if not used since laz_ic_reset. */
-static inline laz_sym *ic_model(laz_ic *ic, laz_sym *m, uint32_t i)
-{
-    if (ic->stamp[i] != ic->epoch) {
-        laz_sym_reset(m);
-        ic->stamp[i] = ic->epoch;
-    }
-    return m;
-}
-
 /* The corrector: class k, then its value among the 2^(k-1) negative and
  * 2^(k-1) positive correctors of bit length k. */
 static int32_t read_corrector(laz_ic *ic, laz_dec *d, uint32_t ctx)
 {
-    uint32_t k = ic->k = laz_dec_symbol(d, ic_model(ic, &ic->m_bits[ctx], ctx));
+    uint32_t k = ic->k = laz_dec_symbol(d, laz_ic_model(ic, &ic->m_bits[ctx], ctx));
     if (!k)
         return (int32_t)laz_dec_bit(d, &ic->m_corr0);
     if (k >= 32)
         return ic->corr_min;
-    uint32_t c = laz_dec_symbol(d, ic_model(ic, &ic->m_corr[k], ic->contexts + k));
+    uint32_t c = laz_dec_symbol(d, laz_ic_model(ic, &ic->m_corr[k], ic->contexts + k));
     if (k > ic->bits_high) { /* the low bits raw */
         unsigned low = k - ic->bits_high;
         c = (c << low) | laz_dec_bits(d, low);

@@ -15,6 +15,17 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* Format constants (LAZ specification, "arithmetic coder"): the interval
+ * is renormalised below 2^24; bit models keep probabilities in 13 bits and
+ * symbol models their distributions in 15 bits. */
+enum {
+    LAZ_AC_MIN_LENGTH = 0x01000000u,
+    LAZ_BM_LENGTH_SHIFT = 13,
+    LAZ_BM_MAX_COUNT = 1u << LAZ_BM_LENGTH_SHIFT,
+    LAZ_DM_LENGTH_SHIFT = 15,
+    LAZ_DM_MAX_COUNT = 1u << LAZ_DM_LENGTH_SHIFT,
+};
+
 /* ---- byte source ---- */
 
 /* Reads a file stretch [pos, limit) through a buffer. Bytes asked for at
@@ -50,6 +61,10 @@ static inline uint8_t laz_in_byte(laz_in *in)
 }
 /* Copies n bytes into dst (zeros past the limit, counted as overrun). */
 void laz_in_bytes(laz_in *in, uint8_t *dst, size_t n);
+/* Makes in a source over n bytes in memory (not owned, not freed): the
+ * layers of the layered compressor are decoded from a chunk buffer. The
+ * offsets it reports (laz_in_tell) count from data. */
+void laz_in_memory(laz_in *in, const uint8_t *data, size_t n);
 
 /* ---- arithmetic decoder ---- */
 
@@ -80,6 +95,11 @@ int laz_sym_create(laz_sym *m, uint32_t n);
 /* Resets the statistics of a created model to the uniform start state. */
 void laz_sym_reset(laz_sym *m);
 void laz_sym_free(laz_sym *m);
+
+/* The model updates after a run of coded bits or symbols: shared by the
+ * decoder and the encoder (laz_encoder.c), which must adapt identically. */
+void laz_bit_update(laz_bit *m);
+void laz_sym_update(laz_sym *m);
 
 uint32_t laz_dec_bit(laz_dec *d, laz_bit *m);
 uint32_t laz_dec_symbol(laz_dec *d, laz_sym *m);
@@ -112,6 +132,40 @@ int laz_ic_create(laz_ic *ic, uint32_t bits, uint32_t contexts);
 /* Returns every model to its start state (lazily: see laz_coder.c). */
 void laz_ic_reset(laz_ic *ic);
 void laz_ic_free(laz_ic *ic);
+/* Model m (stamp index i: the contexts' models first, then the correctors'
+ * at contexts + k) of ic, reset first if not used since laz_ic_reset. */
+static inline laz_sym *laz_ic_model(laz_ic *ic, laz_sym *m, uint32_t i)
+{
+    if (ic->stamp[i] != ic->epoch) {
+        laz_sym_reset(m);
+        ic->stamp[i] = ic->epoch;
+    }
+    return m;
+}
+
+/* A symbol model made on first use and reset on first use after its
+ * owner's epoch moved on (a chunk or context start): the layered items
+ * have many models selected by previous values, most never used. */
+typedef struct laz_lazy_sym {
+    laz_sym m;
+    uint32_t stamp;
+} laz_lazy_sym;
+
+/* The model of l (n symbols), made or reset as needed; NULL if it cannot
+ * be allocated. */
+static inline laz_sym *laz_lazy_model(laz_lazy_sym *l, uint32_t n, uint32_t epoch)
+{
+    if (!l->m.distribution) {
+        if (laz_sym_create(&l->m, n))
+            return NULL;
+        l->stamp = epoch;
+    } else if (l->stamp != epoch) {
+        laz_sym_reset(&l->m);
+        l->stamp = epoch;
+    }
+    return &l->m;
+}
+
 /* Decodes the value predicted as pred in context ctx (< contexts). */
 int32_t laz_ic_decode(laz_ic *ic, laz_dec *d, int32_t pred, uint32_t ctx);
 

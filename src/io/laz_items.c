@@ -2,155 +2,10 @@
  * 2 (contracts in laz_items.h). Each follows the item's description in the
  * LAZ specification: which fields are predicted from what, and which
  * model or context codes the difference. */
-#include "io/laz_items.h"
+#include "io/laz_item_state.h"
 
 #include <stdlib.h>
 #include <string.h>
-
-/* ---- helpers ---- */
-
-/* Byte arithmetic of the item coders: a difference is added modulo 256
- * (fold), a prediction is clamped to the byte range (clamp). */
-static inline uint8_t fold8(int v) { return (uint8_t)(v < 0 ? v + 256 : v > 255 ? v - 256 : v); }
-static inline int clamp8(int v) { return v <= 0 ? 0 : v >= 255 ? 255 : v; }
-
-static inline int32_t get_i32(const uint8_t *p) { int32_t v; memcpy(&v, p, 4); return v; }
-static inline void put_i32(uint8_t *p, int32_t v) { memcpy(p, &v, 4); }
-static inline uint16_t get_u16(const uint8_t *p) { uint16_t v; memcpy(&v, p, 2); return v; }
-static inline void put_u16(uint8_t *p, uint16_t v) { memcpy(p, &v, 2); }
-
-/* Median of the last five values, kept incrementally: LASzip's predictor
- * of the x and y differences. high says on which side the next value
- * replaces an end, so the window ages symmetrically. */
-typedef struct median5 {
-    int32_t v[5];
-    int high;
-} median5;
-
-static void median5_init(median5 *m)
-{
-    memset(m->v, 0, sizeof m->v);
-    m->high = 1;
-}
-
-static void median5_add(median5 *m, int32_t x)
-{
-    int32_t *v = m->v;
-    if (m->high) {
-        if (x < v[2]) {
-            v[4] = v[3], v[3] = v[2];
-            if (x < v[0])
-                v[2] = v[1], v[1] = v[0], v[0] = x;
-            else if (x < v[1])
-                v[2] = v[1], v[1] = x;
-            else
-                v[2] = x;
-        } else {
-            if (x < v[3])
-                v[4] = v[3], v[3] = x;
-            else
-                v[4] = x;
-            m->high = 0;
-        }
-    } else {
-        if (v[2] < x) {
-            v[0] = v[1], v[1] = v[2];
-            if (v[4] < x)
-                v[2] = v[3], v[3] = v[4], v[4] = x;
-            else if (v[3] < x)
-                v[2] = v[3], v[3] = x;
-            else
-                v[2] = x;
-        } else {
-            if (v[1] < x)
-                v[0] = v[1], v[1] = x;
-            else
-                v[0] = x;
-            m->high = 1;
-        }
-    }
-}
-
-/* Contexts by return: number_return_map[n][r] separates the 16 usual
- * (number of returns, return number) pairs, odd ones folded in;
- * number_return_level[n][r] = |n - r| groups returns by depth below the
- * first, for the z prediction. Tables of the specification. */
-static const uint8_t number_return_map[8][8] = {
-    {15, 14, 13, 12, 11, 10, 9, 8}, {14, 0, 1, 3, 6, 10, 10, 9},
-    {13, 1, 2, 4, 7, 11, 11, 10},   {12, 3, 4, 5, 8, 12, 12, 11},
-    {11, 6, 7, 8, 9, 13, 13, 12},   {10, 10, 11, 12, 13, 14, 14, 13},
-    {9, 10, 11, 12, 13, 14, 15, 14}, {8, 9, 10, 11, 12, 13, 14, 15},
-};
-static const uint8_t number_return_level[8][8] = {
-    {0, 1, 2, 3, 4, 5, 6, 7}, {1, 0, 1, 2, 3, 4, 5, 6}, {2, 1, 0, 1, 2, 3, 4, 5},
-    {3, 2, 1, 0, 1, 2, 3, 4}, {4, 3, 2, 1, 0, 1, 2, 3}, {5, 4, 3, 2, 1, 0, 1, 2},
-    {6, 5, 4, 3, 2, 1, 0, 1}, {7, 6, 5, 4, 3, 2, 1, 0},
-};
-
-/* ---- state ---- */
-
-/* Byte fields of POINT10 coded with one 256-symbol model per previous
- * value. Most files use a handful of values, so models are made on first
- * use and reset on first use in each chunk (stamp != epoch), which is the
- * same as resetting all at the chunk start. */
-enum { BYTE_BITS, BYTE_CLASS, BYTE_USER, BYTE_FIELDS };
-
-typedef struct point10 {
-    uint8_t last[20];
-    uint16_t last_intensity[16];
-    median5 dx_median[16], dy_median[16];
-    int32_t last_height[8];
-    laz_sym m_changed, m_scan_angle[2];
-    laz_sym *m_byte[BYTE_FIELDS];       /* [256] each, made lazily */
-    uint32_t *stamp[BYTE_FIELDS];       /* [256]: epoch of the last reset */
-    laz_ic ic_intensity, ic_source, ic_dx, ic_dy, ic_z;
-} point10;
-
-/* GPS time: up to four interleaved sequences (flight lines that alternate
- * within a chunk), each with its last time and last integer difference. */
-enum {
-    GPS_MULTI = 500, GPS_MULTI_MINUS = -10,
-    GPS_MULTI_UNCHANGED = GPS_MULTI - GPS_MULTI_MINUS + 1, /* 511 */
-    GPS_MULTI_CODE_FULL = GPS_MULTI - GPS_MULTI_MINUS + 2, /* 512 */
-    GPS_MULTI_TOTAL = GPS_MULTI - GPS_MULTI_MINUS + 6,     /* 516 */
-};
-
-typedef struct gpstime {
-    uint32_t last, next;
-    int64_t last_time[4];
-    int32_t last_diff[4];
-    int32_t extreme_count[4];
-    laz_sym m_multi, m_0diff;
-    laz_ic ic;
-} gpstime;
-
-typedef struct rgb12 {
-    uint16_t last[3];
-    laz_sym m_used, m_diff[6];
-} rgb12;
-
-typedef struct bytes {
-    uint32_t n;
-    uint8_t *last;
-    laz_sym *m;             /* [n] */
-} bytes;
-
-typedef struct item {
-    uint16_t type;
-    uint32_t offset;        /* in the record */
-    union {
-        point10 *p;
-        gpstime *g;
-        rgb12 *c;
-        bytes *b;
-    } u;
-} item;
-
-struct laz_items {
-    uint32_t n;
-    uint32_t epoch;
-    item it[WPD_LAZ_MAX_ITEMS];
-};
 
 /* ---- POINT10 ---- */
 
@@ -220,20 +75,27 @@ static void point10_start(point10 *p, const uint8_t *rec)
     memcpy(p->last, rec, 20);
 }
 
-/* Decodes byte field f (at byte off of the record) with the model chosen
- * by its previous value. Returns -1 if the model cannot be allocated. */
-static int point10_byte(point10 *p, laz_dec *d, int f, int off, uint32_t epoch)
+laz_sym *laz_point10_byte_model(point10 *p, int f, uint8_t prev, uint32_t epoch)
 {
-    uint8_t prev = p->last[off];
     laz_sym *m = &p->m_byte[f][prev];
     if (!m->distribution) {
         if (laz_sym_create(m, 256))
-            return -1;
+            return NULL;
         p->stamp[f][prev] = epoch;
     } else if (p->stamp[f][prev] != epoch) {
         laz_sym_reset(m);
         p->stamp[f][prev] = epoch;
     }
+    return m;
+}
+
+/* Decodes byte field f (at byte off of the record) with the model chosen
+ * by its previous value. Returns -1 if the model cannot be allocated. */
+static int point10_byte(point10 *p, laz_dec *d, int f, int off, uint32_t epoch)
+{
+    laz_sym *m = laz_point10_byte_model(p, f, p->last[off], epoch);
+    if (!m)
+        return -1;
     p->last[off] = (uint8_t)laz_dec_symbol(d, m);
     return 0;
 }
@@ -306,7 +168,7 @@ static int point10_decode(point10 *p, laz_dec *d, uint8_t *out, uint32_t epoch)
 
 /* ---- GPSTIME11 ---- */
 
-static void gpstime_free(gpstime *g)
+void laz_gpstime_free(gpstime *g)
 {
     if (!g)
         return;
@@ -316,18 +178,20 @@ static void gpstime_free(gpstime *g)
     free(g);
 }
 
-static gpstime *gpstime_create(void)
+gpstime *laz_gpstime_create(int v3)
 {
     gpstime *g = calloc(1, sizeof *g);
-    if (g && (laz_sym_create(&g->m_multi, GPS_MULTI_TOTAL) || laz_sym_create(&g->m_0diff, 6) ||
-              laz_ic_create(&g->ic, 32, 9))) {
-        gpstime_free(g);
+    if (g)
+        g->v3 = v3;
+    if (g && (laz_sym_create(&g->m_multi, v3 ? GPS14_TOTAL : GPS_MULTI_TOTAL) ||
+              laz_sym_create(&g->m_0diff, v3 ? 5 : 6) || laz_ic_create(&g->ic, 32, 9))) {
+        laz_gpstime_free(g);
         return NULL;
     }
     return g;
 }
 
-static void gpstime_start(gpstime *g, const uint8_t *rec)
+void laz_gpstime_start(gpstime *g, const uint8_t *rec)
 {
     g->last = g->next = 0;
     memset(g->last_diff, 0, sizeof g->last_diff);
@@ -342,7 +206,7 @@ static void gpstime_start(gpstime *g, const uint8_t *rec)
 /* A time that does not fit a 32-bit difference: its high 32 bits
  * predicted by the current sequence's, the low 32 raw. Opens a new
  * sequence in the next of the four slots. */
-static void gpstime_full(gpstime *g, laz_dec *d)
+void laz_gpstime_full(gpstime *g, laz_dec *d)
 {
     g->next = (g->next + 1) & 3;
     uint32_t high = (uint32_t)laz_ic_decode(&g->ic, d,
@@ -354,7 +218,7 @@ static void gpstime_full(gpstime *g, laz_dec *d)
     g->extreme_count[g->last] = 0;
 }
 
-static void gpstime_add(gpstime *g, int32_t diff)
+void laz_gpstime_add(gpstime *g, int32_t diff)
 {
     g->last_time[g->last] = (int64_t)((uint64_t)g->last_time[g->last] + (uint64_t)(int64_t)diff);
 }
@@ -362,7 +226,7 @@ static void gpstime_add(gpstime *g, int32_t diff)
 /* A difference coded against multi times the last difference (multi in
  * 0..510 of the symbol): 0 and the extremes also count towards replacing
  * the last difference after four in a row, as the encoder does. */
-static void gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
+void laz_gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
 {
     int32_t last = g->last_diff[g->last], diff;
     int extreme = 0;
@@ -389,45 +253,50 @@ static void gpstime_multi(gpstime *g, laz_dec *d, int32_t multi)
         g->last_diff[g->last] = diff;
         g->extreme_count[g->last] = 0;
     }
-    gpstime_add(g, diff);
+    laz_gpstime_add(g, diff);
 }
 
 /* One step; returns 1 when the stream switched sequence and the time
  * follows (the encoder codes the switch, then the time in the new
- * sequence), else 0. */
+ * sequence), else 0. Version 2 has an "unchanged" code in both models;
+ * version 3 does not (POINT14 flags a changed time itself), so its other
+ * codes are one lower. */
 static int gpstime_step(gpstime *g, laz_dec *d)
 {
     if (g->last_diff[g->last] == 0) {
         uint32_t multi = laz_dec_symbol(d, &g->m_0diff);
-        if (multi == 1) {
+        if (!g->v3 && multi-- == 0)
+            return 0;
+        if (multi == 0) {
             int32_t diff = laz_ic_decode(&g->ic, d, 0, 0);
             g->last_diff[g->last] = diff;
-            gpstime_add(g, diff);
+            laz_gpstime_add(g, diff);
             g->extreme_count[g->last] = 0;
-        } else if (multi == 2) {
-            gpstime_full(g, d);
-        } else if (multi > 2) {
-            g->last = (g->last + multi - 2) & 3;
+        } else if (multi == 1) {
+            laz_gpstime_full(g, d);
+        } else {
+            g->last = (g->last + multi - 1) & 3;
             return 1;
         }
         return 0;
     }
     uint32_t multi = laz_dec_symbol(d, &g->m_multi);
+    uint32_t full = g->v3 ? GPS14_CODE_FULL : GPS_MULTI_CODE_FULL;
     if (multi == 1) {
-        gpstime_add(g, laz_ic_decode(&g->ic, d, g->last_diff[g->last], 1));
+        laz_gpstime_add(g, laz_ic_decode(&g->ic, d, g->last_diff[g->last], 1));
         g->extreme_count[g->last] = 0;
     } else if (multi < GPS_MULTI_UNCHANGED) {
-        gpstime_multi(g, d, (int32_t)multi);
-    } else if (multi == GPS_MULTI_CODE_FULL) {
-        gpstime_full(g, d);
-    } else if (multi > GPS_MULTI_CODE_FULL) {
-        g->last = (g->last + multi - GPS_MULTI_CODE_FULL) & 3;
+        laz_gpstime_multi(g, d, (int32_t)multi);
+    } else if (multi == full) {
+        laz_gpstime_full(g, d);
+    } else if (multi > full) {
+        g->last = (g->last + multi - full) & 3;
         return 1;
     }
     return 0;
 }
 
-static int gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why)
+int laz_gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why)
 {
     /* A valid stream switches at most once per point; a few more are
      * allowed, then the stream is taken as corrupt rather than looping. */
@@ -443,7 +312,7 @@ static int gpstime_decode(gpstime *g, laz_dec *d, uint8_t *out, const char **why
 
 /* ---- RGB12 ---- */
 
-static void rgb12_free(rgb12 *c)
+void laz_rgb12_free(rgb12 *c)
 {
     if (!c)
         return;
@@ -453,20 +322,20 @@ static void rgb12_free(rgb12 *c)
     free(c);
 }
 
-static rgb12 *rgb12_create(void)
+rgb12 *laz_rgb12_create(void)
 {
     rgb12 *c = calloc(1, sizeof *c);
     int bad = !c || laz_sym_create(&c->m_used, 128);
     for (int i = 0; i < 6 && !bad; i++)
         bad = laz_sym_create(&c->m_diff[i], 256);
     if (bad) {
-        rgb12_free(c);
+        laz_rgb12_free(c);
         return NULL;
     }
     return c;
 }
 
-static void rgb12_start(rgb12 *c, const uint8_t *rec)
+void laz_rgb12_start(rgb12 *c, const uint8_t *rec)
 {
     laz_sym_reset(&c->m_used);
     for (int i = 0; i < 6; i++)
@@ -488,7 +357,7 @@ static unsigned rgb12_byte(rgb12 *c, laz_dec *d, uint32_t used, int bit, int ch,
 /* Red is coded against the previous red; green and blue (flag bit 6:
  * not grey) against the previous value moved by red's change, blue by the
  * mean of red's and green's change, each clamped to a byte. */
-static void rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out)
+void laz_rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out)
 {
     uint16_t *last = c->last;
     uint32_t used = laz_dec_symbol(d, &c->m_used);
@@ -527,7 +396,7 @@ static void rgb12_decode(rgb12 *c, laz_dec *d, uint8_t *out)
 
 /* ---- BYTE (extra bytes) ---- */
 
-static void bytes_free(bytes *b)
+void laz_bytes_free(bytes *b)
 {
     if (!b)
         return;
@@ -539,7 +408,7 @@ static void bytes_free(bytes *b)
     free(b);
 }
 
-static bytes *bytes_create(uint32_t n)
+bytes *laz_bytes_create(uint32_t n)
 {
     bytes *b = calloc(1, sizeof *b);
     if (!b)
@@ -551,7 +420,7 @@ static bytes *bytes_create(uint32_t n)
     for (uint32_t i = 0; i < n && !bad; i++)
         bad = laz_sym_create(&b->m[i], 256);
     if (bad) {
-        bytes_free(b);
+        laz_bytes_free(b);
         return NULL;
     }
     return b;
@@ -583,9 +452,9 @@ void laz_items_free(laz_items *it)
         item *x = &it->it[i];
         switch (x->type) {
         case LAZ_ITEM_POINT10: point10_free(x->u.p); break;
-        case LAZ_ITEM_GPSTIME11: gpstime_free(x->u.g); break;
-        case LAZ_ITEM_RGB12: rgb12_free(x->u.c); break;
-        default: bytes_free(x->u.b); break;
+        case LAZ_ITEM_GPSTIME11: laz_gpstime_free(x->u.g); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_free(x->u.c); break;
+        default: laz_bytes_free(x->u.b); break;
         }
     }
     free(it);
@@ -607,9 +476,9 @@ laz_items *laz_items_create(const wpd_laz_item *list, uint32_t n)
         void *made;
         switch (x->type) {
         case LAZ_ITEM_POINT10: made = x->u.p = point10_create(); break;
-        case LAZ_ITEM_GPSTIME11: made = x->u.g = gpstime_create(); break;
-        case LAZ_ITEM_RGB12: made = x->u.c = rgb12_create(); break;
-        default: made = x->u.b = bytes_create(list[i].size); break;
+        case LAZ_ITEM_GPSTIME11: made = x->u.g = laz_gpstime_create(0); break;
+        case LAZ_ITEM_RGB12: made = x->u.c = laz_rgb12_create(); break;
+        default: made = x->u.b = laz_bytes_create(list[i].size); break;
         }
         it->n = i + 1;
         if (!made) {
@@ -628,8 +497,8 @@ void laz_items_start(laz_items *it, const uint8_t *rec)
         const uint8_t *p = rec + x->offset;
         switch (x->type) {
         case LAZ_ITEM_POINT10: point10_start(x->u.p, p); break;
-        case LAZ_ITEM_GPSTIME11: gpstime_start(x->u.g, p); break;
-        case LAZ_ITEM_RGB12: rgb12_start(x->u.c, p); break;
+        case LAZ_ITEM_GPSTIME11: laz_gpstime_start(x->u.g, p); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_start(x->u.c, p); break;
         default: bytes_start(x->u.b, p); break;
         }
     }
@@ -646,10 +515,10 @@ int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why)
                 return -2;
             break;
         case LAZ_ITEM_GPSTIME11:
-            if (gpstime_decode(x->u.g, d, p, why))
+            if (laz_gpstime_decode(x->u.g, d, p, why))
                 return -1;
             break;
-        case LAZ_ITEM_RGB12: rgb12_decode(x->u.c, d, p); break;
+        case LAZ_ITEM_RGB12: laz_rgb12_decode(x->u.c, d, p); break;
         default: bytes_decode(x->u.b, d, p); break;
         }
     }

@@ -3,7 +3,8 @@
  * all version 2, chained in the order the LASzip VLR lists them.
  *
  * A chunk opens with one raw record; every later record is predicted from
- * the previous one(s) and decoded from the chunk's arithmetic stream.
+ * the previous one(s) and decoded from (or encoded into) the chunk's
+ * arithmetic stream.
  * Not for use outside src/io.
  */
 #ifndef WPD_LAZ_ITEMS_H
@@ -12,6 +13,7 @@
 #include <stdint.h>
 
 #include "io/laz_coder.h"
+#include "io/laz_encoder.h"
 #include "io/schema.h"
 
 /* LASzip item type codes (LAZ specification, table of items). */
@@ -37,5 +39,11 @@ void laz_items_start(laz_items *it, const uint8_t *rec);
  * when the stream is found corrupt (a GPS time that never settles; *why
  * says so) or -2 when a model made on first use cannot be allocated. */
 int laz_items_decode(laz_items *it, laz_dec *d, uint8_t *rec, const char **why);
+
+/* Encodes rec, the next record of the chunk opened by laz_items_start,
+ * into e: the exact inverse of laz_items_decode (laz_items_enc.c). The
+ * items then hold rec as the previous record. Returns 0, or -1 when a
+ * model made on first use cannot be allocated. */
+int laz_items_encode(laz_items *it, laz_enc *e, const uint8_t *rec);
 
 #endif

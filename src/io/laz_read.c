@@ -17,6 +17,7 @@
 #include "io/las_internal.h"
 #include "io/laz.h"
 #include "io/laz_items.h"
+#include "io/laz_layered.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -28,7 +29,8 @@
 typedef struct laz_reader {
     laz_in in;
     laz_dec dec;
-    laz_items *items;
+    laz_items *items;           /* point-wise compressor, or */
+    laz_layered *layered;       /* layered compressor (point formats 6-10) */
     uint8_t *scratch;           /* one record, for points skipped after a seek */
     uint32_t record_length;
     double scale[3], offset[3];
@@ -160,6 +162,27 @@ static int fail_chunk(wpd_reader *r, laz_reader *z, const char *what, wpd_error 
                     what);
 }
 
+/* Opens a layered chunk: its point count must be the table's, or without
+ * a table at least 1 and no more than the points left. */
+static int open_layered(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *err)
+{
+    const char *why = NULL;
+    uint64_t limit = z->nchunks ? z->start[z->chunk + 1] : z->data_end;
+    uint32_t count;
+    int rc = laz_layered_open(z->layered, &z->in, limit, z->record_length, rec, &count, &why);
+    uint64_t table_count = z->chunk_left;
+    z->chunk_left = 0; /* until it opened: a read after a failure opens it again */
+    if (rc == -2)
+        return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for a LAZ chunk", r->hdr.path);
+    if (rc)
+        return fail_chunk(r, z, why, err);
+    uint64_t left = r->hdr.point_count - z->next;
+    if (z->nchunks ? count != table_count : (!count || count > left))
+        return fail_chunk(r, z, "its point count does not match the chunk table or header", err);
+    z->chunk_left = count;
+    return 0;
+}
+
 /* Opens chunk z->chunk: its raw first record into rec, then the decoder. */
 static int open_chunk(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *err)
 {
@@ -171,6 +194,8 @@ static int open_chunk(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *err
         uint64_t left = r->hdr.point_count - z->next;
         z->chunk_left = left < z->chunk_points ? left : z->chunk_points;
     }
+    if (z->layered)
+        return open_layered(r, z, rec, err);
     laz_in_bytes(&z->in, rec, z->record_length);
     laz_dec_init(&z->dec, &z->in);
     if (z->in.overrun)
@@ -186,6 +211,9 @@ static int close_chunk(wpd_reader *r, laz_reader *z, wpd_error *err)
     if (z->in.overrun)
         return fail_chunk(r, z, "the compressed stream runs past the chunk's end (truncated "
                                 "or corrupt)", err);
+    const char *why = z->layered ? laz_layered_close(z->layered) : NULL;
+    if (why)
+        return fail_chunk(r, z, why, err);
     if (z->nchunks && laz_in_tell(&z->in) != z->start[z->chunk + 1])
         return fail_chunk(r, z, "the compressed stream does not end where the chunk ends "
                                 "(corrupt)", err);
@@ -201,7 +229,8 @@ static int next_point(wpd_reader *r, laz_reader *z, uint8_t *rec, wpd_error *err
             return -1;
     } else {
         const char *why = NULL;
-        int rc = laz_items_decode(z->items, &z->dec, rec, &why);
+        int rc = z->layered ? laz_layered_decode(z->layered, rec, &why)
+                            : laz_items_decode(z->items, &z->dec, rec, &why);
         if (rc == -2)
             return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for a LAZ model", r->hdr.path);
         if (rc)
@@ -282,6 +311,7 @@ static void laz_close(wpd_reader *r)
         return;
     laz_in_free(&z->in);
     laz_items_free(z->items);
+    laz_layered_free(z->layered);
     free(z->scratch);
     free(z->start);
     free(z->first);
@@ -289,8 +319,19 @@ static void laz_close(wpd_reader *r)
     r->impl = NULL;
 }
 
-static const wpd_reader_ops laz_ops_seek = {laz_read, laz_seek, laz_close};
-static const wpd_reader_ops laz_ops_sequential = {laz_read, NULL, laz_close};
+/* Layered chunks: from the next chunk on, only the X Y and Z layers. */
+static int laz_positions_only(wpd_reader *r, int on)
+{
+    laz_reader *z = r->impl;
+    if (!z->layered)
+        return 0;
+    laz_layered_xyz_only(z->layered, on);
+    return 1;
+}
+
+static const wpd_reader_ops laz_ops_seek = {laz_read, laz_seek, laz_close, laz_positions_only};
+static const wpd_reader_ops laz_ops_sequential = {laz_read, NULL, laz_close,
+                                                  laz_positions_only};
 
 /* ---- opening ---- */
 
@@ -315,7 +356,8 @@ static int find_chunks(wpd_reader *r, laz_reader *z, uint64_t *points_end, wpd_e
     }
     free(z->start), free(z->first);
     z->start = z->first = NULL;
-    if (variable)
+    /* Layered chunks store their point count: they can be walked. */
+    if (variable && l->laz.compressor != 3)
         return wpd_fail(err, WPD_E_INPUT,
                         "%s: LAZ with variable-size chunks needs its chunk table, and it is "
                         "unusable: %s",
@@ -340,8 +382,10 @@ int wpd_laz_open_reader(wpd_reader *r, uint64_t *points_end, wpd_error *err)
     z->record_length = l->record_length;
     memcpy(z->scale, l->scale, sizeof z->scale);
     memcpy(z->offset, l->offset, sizeof z->offset);
+    int layered = l->laz.compressor == 3;
     if (laz_in_init(&z->in, r->fd, LAZ_IN_BUFFER) || !(z->scratch = malloc(l->record_length)) ||
-        !(z->items = laz_items_create(l->laz.items, l->laz.nitems)))
+        (layered ? !(z->layered = laz_layered_create(l->laz.items, l->laz.nitems))
+                 : !(z->items = laz_items_create(l->laz.items, l->laz.nitems))))
         return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", r->hdr.path);
     /* Compressor 1 (LASzip 1.x) has no chunk table offset before the data. */
     z->data_start = l->offset_to_points + (l->laz.compressor == 1 ? 0 : 8);

@@ -82,55 +82,76 @@ static const char *item_list(const wpd_laz_info *z, char *buf, size_t size)
 }
 
 /* Refusals by item: what exists in LAZ but is not decoded here, with the
- * reason a user can act on. */
+ * reason a user can act on. The point-wise compressor takes the version 2
+ * items of point formats 0-5, the layered one the version 3 items of
+ * formats 6-10. */
 static int check_items_known(const char *path, const wpd_laz_info *z, wpd_error *err)
 {
+    int layered = z->compressor == 3;
     for (uint16_t i = 0; i < z->nitems; i++) {
         const wpd_laz_item *it = &z->items[i];
+        int ok = 0;
         switch (it->type) {
         case LAZ_ITEM_POINT10: case LAZ_ITEM_GPSTIME11: case LAZ_ITEM_RGB12: case LAZ_ITEM_BYTE:
+            ok = !layered;
             break;
-        case LAZ_ITEM_WAVEPACKET13:
+        case LAZ_ITEM_POINT14: case LAZ_ITEM_RGB14: case LAZ_ITEM_RGBNIR14: case LAZ_ITEM_BYTE14:
+            ok = layered;
+            break;
+        case LAZ_ITEM_WAVEPACKET13: case LAZ_ITEM_WAVEPACKET14:
             return wpd_fail(err, WPD_E_INPUT,
-                            "%s: waveform packets in LAZ are not supported (item "
-                            "WAVEPACKET13); decompress it first (e.g. with laszip)",
-                            path);
-        default:
-            return wpd_fail(err, WPD_E_INPUT,
-                            "%s: LAZ item type %u (%s) is not supported with the point-wise "
-                            "compressor",
-                            path, it->type, wpd_laz_item_name(it->type));
+                            "%s: waveform packets in LAZ are not supported (item %s); "
+                            "decompress it first (e.g. with laszip)",
+                            path, wpd_laz_item_name(it->type));
+        default: break;
         }
+        if (!ok)
+            return wpd_fail(err, WPD_E_INPUT,
+                            "%s: LAZ item type %u (%s) is not supported with the %s compressor",
+                            path, it->type, wpd_laz_item_name(it->type),
+                            wpd_laz_compressor_name(z->compressor));
         if (it->version == 1)
             return wpd_fail(err, WPD_E_INPUT,
                             "%s: LAZ written by LASzip 1.x (item %s version 1) is not "
                             "supported; recompress it with a current laszip",
                             path, wpd_laz_item_name(it->type));
-        if (it->version != 2)
+        if (it->version != (layered ? 3 : 2))
             return wpd_fail(err, WPD_E_INPUT, "%s: unknown LAZ item version %u of %s", path,
                             it->version, wpd_laz_item_name(it->type));
     }
     return 0;
 }
 
-/* The items must be the record's fields in record order: POINT10, then
- * GPS time, colour, waveform as the point format has them, then the extra
- * bytes, sizes adding up to the record length. */
+/* The items must be the record's fields in record order: the point item,
+ * then GPS time, colour, waveform as the point format has them, then the
+ * extra bytes, sizes adding up to the record length. */
 static int check_items_layout(const wpd_header *h, wpd_error *err)
 {
     const wpd_las_info *l = &h->las;
     const wpd_laz_info *z = &l->laz;
     wpd_laz_item want[5];
     int n = 0, f = l->pdrf;
-    want[n++] = (wpd_laz_item){LAZ_ITEM_POINT10, 20, 0};
-    if (f == 1 || f == 3 || f == 4 || f == 5)
-        want[n++] = (wpd_laz_item){LAZ_ITEM_GPSTIME11, 8, 0};
-    if (f == 2 || f == 3 || f == 5)
-        want[n++] = (wpd_laz_item){LAZ_ITEM_RGB12, 6, 0};
-    if (f == 4 || f == 5)
-        want[n++] = (wpd_laz_item){LAZ_ITEM_WAVEPACKET13, 29, 0};
-    if (l->extra_bytes)
-        want[n++] = (wpd_laz_item){LAZ_ITEM_BYTE, l->extra_bytes, 0};
+    if (f >= 6) {
+        want[n++] = (wpd_laz_item){LAZ_ITEM_POINT14, 30, 0};
+        if (f == 7)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_RGB14, 6, 0};
+        if (f == 8 || f == 10)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_RGBNIR14, 8, 0};
+        if (f == 9 || f == 10)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_WAVEPACKET14, 29, 0};
+        if (l->extra_bytes)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_BYTE14, l->extra_bytes, 0};
+    } else {
+        want[n++] = (wpd_laz_item){LAZ_ITEM_POINT10, 20, 0};
+        if (f == 1 || f == 3 || f == 4 || f == 5)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_GPSTIME11, 8, 0};
+        if (f == 2 || f == 3 || f == 5)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_RGB12, 6, 0};
+        if (f == 4 || f == 5)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_WAVEPACKET13, 29, 0};
+        if (l->extra_bytes)
+            want[n++] = (wpd_laz_item){LAZ_ITEM_BYTE, l->extra_bytes, 0};
+    }
     int same = z->nitems == n;
     for (int i = 0; same && i < n; i++)
         same = z->items[i].type == want[i].type && z->items[i].size == want[i].size;
@@ -147,14 +168,14 @@ int wpd_laz_check(const wpd_header *h, wpd_error *err)
 {
     const wpd_las_info *l = &h->las;
     const wpd_laz_info *z = &l->laz;
-    if (l->pdrf >= 6 || z->compressor == 3)
-        return wpd_fail(err, WPD_E_INPUT,
-                        "%s: LAZ point format %u (layered compressor) is not supported yet; "
-                        "only point formats 0-5 are read",
-                        h->path, l->pdrf);
-    if (z->compressor != 1 && z->compressor != 2)
+    if (z->compressor < 1 || z->compressor > 3)
         return wpd_fail(err, WPD_E_INPUT, "%s: unknown LAZ compressor %u", h->path,
                         z->compressor);
+    if ((l->pdrf >= 6) != (z->compressor == 3))
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: LAZ point format %u with the %s compressor: point formats 6-10 "
+                        "use the layered compressor and only they do",
+                        h->path, l->pdrf, wpd_laz_compressor_name(z->compressor));
     if (z->coder != 0)
         return wpd_fail(err, WPD_E_INPUT, "%s: unknown LAZ coder %u (0, arithmetic, is defined)",
                         h->path, z->coder);

@@ -100,6 +100,11 @@ int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error
     return 0;
 }
 
+int wpd_reader_positions_only(wpd_reader *r, int on)
+{
+    return r->ops->positions_only ? r->ops->positions_only(r, on) : 0;
+}
+
 uint64_t wpd_reader_dropped(const wpd_reader *r) { return r->dropped; }
 
 void wpd_reader_close(wpd_reader *r)

@@ -44,6 +44,15 @@ int wpd_reader_seek(wpd_reader *r, uint64_t index, wpd_error *err);
  * the next seek. */
 int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error *err);
 
+/* Asks for positions only (on = 1) or whole records again (0), from the
+ * next read after a seek or chunk start on: a reader that can save work
+ * (layered LAZ: only the X, Y and Z layers are decoded, the others not
+ * even loaded) then fills b->xyz exactly but may leave the other fields
+ * of b->records stale. Call it right after opening or seeking. Returns 1
+ * when the reader saves work this way, 0 when it reads whole records
+ * anyway. */
+int wpd_reader_positions_only(wpd_reader *r, int on);
+
 /* Number of records dropped so far for non-finite coordinates. */
 uint64_t wpd_reader_dropped(const wpd_reader *r);
 

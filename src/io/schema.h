@@ -104,6 +104,8 @@ typedef struct wpd_las_info {
                                      data (owned; LAS 1.0: the start signature) */
     uint32_t vlr_tail_len;
     wpd_laz_info laz;             /* compressed files only (laz.compressed) */
+    int copc;                     /* 1: a COPC file; its info VLR and hierarchy
+                                     EVLR were dropped from vlrs and evlrs */
 } wpd_las_info;
 
 /* ---- PLY header facts ---- */

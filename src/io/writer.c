@@ -1,6 +1,7 @@
 /* writer.c - dispatch to the per-format writers around a temp-then-rename
  * output file. */
 #include "io/format.h"
+#include "io/layout.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -22,6 +23,10 @@ wpd_writer *wpd_writer_open(const char *path, const wpd_header *hdr,
     if (opt)
         w->opt = *opt;
     snprintf(w->hdr.path, sizeof w->hdr.path, "%s", path);
+    /* LAS or LAZ by the name, whatever the input was: the LAZ facts of a
+     * compressed input describe its encoding, not the output's. */
+    if (w->hdr.format == WPD_FMT_LAS)
+        w->hdr.las.laz = (wpd_laz_info){.compressed = wpd_format_is_laz_name(path)};
     if (wpd_outfile_open(&w->out, path, w->opt.overwrite, err)) {
         wpd_header_free(&w->hdr);
         free(w);

@@ -1,7 +1,8 @@
-"""LAZ input (issue 13, first milestone: reading point formats 0-5):
-`wpd info`, `wpd convert` and `wpd resample` on LAZ files against their
-decompressed twins in ../shared/data/laz; damaged LAZ files fail with one
-line and exit 2."""
+"""LAZ input (issue 13: point formats 0-5, point-wise compressor; 6-10,
+layered compressor, COPC included): `wpd info`, `wpd convert` and
+`wpd resample` on LAZ files against their decompressed twins in
+../shared/data/laz; COPC's own VLR and EVLR are dropped from every output;
+damaged LAZ files fail with one line and exit 2."""
 import json
 import struct
 
@@ -21,7 +22,9 @@ def records(path):
 
 
 def test_laz_convert_gives_the_twin_records():
-    for name in ("lastools_house", "pdal_autzen_trim", "laspy_extra", "rlas_extra_byte"):
+    for name in ("lastools_house", "pdal_autzen_trim", "laspy_extra", "rlas_extra_byte",
+                 "rlas_las14_prf6", "laspy_1_4_w_evlr", "copcvalidator_ellipsoid-1.4",
+                 "laspy_append-bug", "untwine_eb", "laspy_simple_with_page.copc"):
         wpd("convert", data("laz", name + ".laz"), name + ".las")
         got, want = records(name + ".las"), records(data("laz", name + ".las"))
         assert got == want, (name, got[0], want[0])
@@ -58,9 +61,49 @@ def test_laz_resample_same_bytes_as_las_twin():
                 assert a.read() == b.read(), (extra, threads)
 
 
+def test_laz_info_layered():
+    out = wpd("info", data("laz", "laspy_append-bug.laz")).stdout
+    assert "compressor:       layered chunked (3), LASzip 2.2r0" in out, out
+    assert "POINT14 (30 bytes, v3) + RGBNIR14 (8 bytes, v3) + BYTE14 (3 bytes, v3)" in out, out
+    out = wpd("info", data("laz", "laspy_simple_with_page.copc.laz")).stdout
+    assert "variable size, 65 in the chunk table" in out, out
+    assert "COPC" in out, out
+
+
+def vlr_ids(path):
+    """(user id, record id) of every VLR and EVLR of a LAS/LAZ file."""
+    with open(path, "rb") as f:
+        b = f.read()
+    ids, at = [], struct.unpack_from("<H", b, 94)[0]
+    for _ in range(struct.unpack_from("<I", b, 100)[0]):
+        ids.append((b[at + 2:at + 18].rstrip(b"\0"), struct.unpack_from("<H", b, at + 18)[0]))
+        at += 54 + struct.unpack_from("<H", b, at + 20)[0]
+    if b[25] >= 4:
+        at, n = struct.unpack_from("<QI", b, 235)
+        for _ in range(n):
+            ids.append((b[at + 2:at + 18].rstrip(b"\0"), struct.unpack_from("<H", b, at + 18)[0]))
+            at += 60 + struct.unpack_from("<Q", b, at + 20)[0]
+    return ids
+
+
+def test_copc_vlr_and_evlr_dropped_from_every_output():
+    for name in ("laspy_simple_with_page.copc", "rlas_example.copc"):
+        src = data("laz", name + ".laz")
+        assert (b"copc", 1) in vlr_ids(src) and (b"copc", 1000) in vlr_ids(src)
+        for out in ("o.las", "o.laz", "o.ply"):
+            wpd("convert", src, out, "--force")
+            if out != "o.ply":
+                assert not [i for i in vlr_ids(out) if i[0] == b"copc"], (name, out, vlr_ids(out))
+            else:
+                with open(out, "rb") as f:
+                    assert b"copc" not in f.read(4096), name
+        assert records("o.las") == records(data("laz", name + ".las")), name
+        wpd("resample", src, "-o", "r.las", "-n", 500, "--force")
+        assert not [i for i in vlr_ids("r.las") if i[0] == b"copc"], name
+
+
 def test_laz_refusals_are_one_line():
-    cases = (("rlas_las14_prf6.laz", "layered compressor) is not supported yet"),
-             ("rlas_fwf.laz", "waveform packets in LAZ are not supported"),
+    cases = (("rlas_fwf.laz", "waveform packets in LAZ are not supported"),
              ("pdal_simple-laszip-compressor-version-1.2r0.laz", "LASzip 1.x"))
     for name, expect in cases:
         path = data("laz", name)

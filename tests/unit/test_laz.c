@@ -107,11 +107,10 @@ static void check_twin(int *failures_, const char *path, const char *twin, int *
     cf_cloud_free(&b);
 }
 
-/* Point formats 0-5 (point-wise compressor) must read to exactly the
- * records of the decompressed twin. Formats 6-10 use the layered
- * compressor, a later milestone of issue 13: for now each must be refused
- * with one line saying so. Files without a twin (LASzip 1.x items,
- * waveform packets) are refused with one line too. */
+/* Every file with a twin must read to exactly the twin's records: point
+ * formats 0-5 (point-wise compressor) and 6-10 (layered compressor, COPC
+ * included). Files without a twin (LASzip 1.x items, waveform packets)
+ * are refused with one line. */
 TEST(laz_manifest_twins)
 {
     const char *data = test_data_dir();
@@ -124,7 +123,7 @@ TEST(laz_manifest_twins)
     if (!f)
         return;
     char line[16384];
-    int read = 0, layered = 0, refused = 0;
+    int read = 0, refused = 0, layered_before = 0, layered = 0;
     while (fgets(line, sizeof line, f)) {
         laz_row row;
         if (!parse_row(line, &row))
@@ -132,19 +131,19 @@ TEST(laz_manifest_twins)
         char laz[1200], twin[1200];
         snprintf(laz, sizeof laz, "%.600s/%.255s", dir, row.file);
         snprintf(twin, sizeof twin, "%.600s/%.255s", dir, row.twin);
-        if (row.pdrf >= 6) {
-            check_refused(failures_, laz, "layered compressor) is not supported yet");
-            layered++;
-        } else if (row.twin[0]) {
+        if (row.twin[0]) {
+            layered_before = read;
             check_twin(failures_, laz, twin, &read);
+            layered += row.pdrf >= 6 && read > layered_before;
         } else {
             check_refused(failures_, laz, "not supported");
             refused++;
         }
     }
     fclose(f);
-    CHECK_MSG(read >= 14, "only %d LAZ files read against twins", read);
-    CHECK(layered >= 8 && refused == 2);
+    CHECK_MSG(read >= 22, "only %d LAZ files read against twins", read);
+    CHECK_MSG(layered >= 8, "only %d layered LAZ files read against twins", layered);
+    CHECK(refused == 2);
 }
 
 /* ------------------------------------------------------------ seeking */
@@ -163,31 +162,75 @@ static int read_range(const char *path, uint64_t from, uint64_t to, cf_cloud *c)
     return rc ? -1 : 0;
 }
 
+/* Ranges [from, to) of name.laz against the same of its twin name.las. */
+static void check_ranges(int *failures_, const char *data, const char *name,
+                         const uint64_t (*ranges)[2], size_t n)
+{
+    char laz[1024], las[1024];
+    snprintf(laz, sizeof laz, "%.900s/laz/%s.laz", data, name);
+    snprintf(las, sizeof las, "%.900s/laz/%s.las", data, name);
+    for (size_t i = 0; i < n; i++) {
+        cf_cloud a, b;
+        int ra = read_range(laz, ranges[i][0], ranges[i][1], &a);
+        int rb = read_range(las, ranges[i][0], ranges[i][1], &b);
+        CHECK_MSG(ra == 0 && rb == 0, "%s range %llu..%llu: read failed", name,
+                  (unsigned long long)ranges[i][0], (unsigned long long)ranges[i][1]);
+        if (ra == 0 && rb == 0)
+            CHECK_MSG(same_records(&a, &b) && a.n == ranges[i][1] - ranges[i][0],
+                      "%s range %llu..%llu: %zu records, differ", name,
+                      (unsigned long long)ranges[i][0], (unsigned long long)ranges[i][1], a.n);
+        cf_cloud_free(&a);
+        cf_cloud_free(&b);
+    }
+}
+
 /* Ranges inside one chunk, across chunk boundaries (50000 points each in
- * lastools_fusa.laz: 6 chunks), in the short last chunk, and at the end,
- * as the engine's parallel range readers ask for them. */
+ * lastools_fusa.laz: 6 chunks; copcvalidator_ellipsoid-1.4.laz, layered:
+ * 2), in the short last chunk, and at the end, as the engine's parallel
+ * range readers ask for them; and in a COPC file's 65 variable chunks. */
 TEST(laz_seek_ranges)
 {
     const char *data = test_data_dir();
     if (!data)
         return;
-    char laz[1024], las[1024];
-    snprintf(laz, sizeof laz, "%.900s/laz/lastools_fusa.laz", data);
-    snprintf(las, sizeof las, "%.900s/laz/lastools_fusa.las", data);
-    static const uint64_t ranges[][2] = {
+    static const uint64_t fusa[][2] = {
         {0, 10},          {49990, 50010},   {50000, 50001}, {123456, 234567},
         {249999, 277573}, {277570, 277573}, {277573, 277573}, {1, 277573},
     };
-    for (size_t i = 0; i < sizeof ranges / sizeof *ranges; i++) {
-        cf_cloud a, b;
-        int ra = read_range(laz, ranges[i][0], ranges[i][1], &a);
-        int rb = read_range(las, ranges[i][0], ranges[i][1], &b);
-        CHECK_MSG(ra == 0 && rb == 0, "range %llu..%llu: read failed",
-                  (unsigned long long)ranges[i][0], (unsigned long long)ranges[i][1]);
-        if (ra == 0 && rb == 0)
-            CHECK_MSG(same_records(&a, &b) && a.n == ranges[i][1] - ranges[i][0],
-                      "range %llu..%llu: %zu records, differ", (unsigned long long)ranges[i][0],
-                      (unsigned long long)ranges[i][1], a.n);
+    static const uint64_t ellipsoid[][2] = {
+        {0, 10}, {49990, 50010}, {50000, 50001}, {99999, 100000}, {100000, 100000}, {1, 100000},
+    };
+    static const uint64_t copc[][2] = {{0, 1}, {17, 400}, {500, 1065}, {1064, 1065}};
+    check_ranges(failures_, data, "lastools_fusa", fusa, sizeof fusa / sizeof *fusa);
+    check_ranges(failures_, data, "copcvalidator_ellipsoid-1.4", ellipsoid,
+                 sizeof ellipsoid / sizeof *ellipsoid);
+    check_ranges(failures_, data, "laspy_simple_with_page.copc", copc, sizeof copc / sizeof *copc);
+}
+
+/* Positions only (layered: the X Y and Z layers alone) give the twin's
+ * coordinates, on every chunk, after a seek too; a point-wise file says
+ * it saves nothing and reads whole records. */
+TEST(laz_positions_only)
+{
+    const char *data = test_data_dir();
+    if (!data)
+        return;
+    static const char *names[] = {"copcvalidator_ellipsoid-1.4", "laspy_append-bug",
+                                  "laspy_simple_with_page.copc", "lastools_house"};
+    for (size_t f = 0; f < sizeof names / sizeof *names; f++) {
+        char laz[1024], las[1024];
+        snprintf(laz, sizeof laz, "%.900s/laz/%s.laz", data, names[f]);
+        snprintf(las, sizeof las, "%.900s/laz/%s.las", data, names[f]);
+        cf_cloud a = {0}, b = {0};
+        wpd_error err = {0};
+        wpd_reader *r = wpd_reader_open(laz, &err);
+        int saves = r ? wpd_reader_positions_only(r, 1) : -1;
+        int ra = r ? cf_read_all(r, &a, 999, &err) : -1;
+        wpd_reader_close(r);
+        CHECK_MSG(ra == 0 && read_file(las, &b, 4096, &err) == 0, "%s: %s", laz, err.msg);
+        CHECK_MSG(saves == (f < 3), "%s: positions only saves %d", names[f], saves);
+        CHECK_MSG(a.n == b.n && a.n && !memcmp(a.xyz, b.xyz, 3 * a.n * sizeof *a.xyz),
+                  "%s: positions differ from the twin's", names[f]);
         cf_cloud_free(&a);
         cf_cloud_free(&b);
     }
@@ -305,6 +348,7 @@ TEST(laz_damaged_files)
 }
 
 /* Byte offset of the LASzip VLR payload in b (its header before it), or 0. */
+
 static size_t laszip_payload(const uint8_t *b, size_t len)
 {
     uint16_t hsize;
@@ -322,22 +366,73 @@ static size_t laszip_payload(const uint8_t *b, size_t len)
     return 0;
 }
 
-/* A LASzip VLR that contradicts the header or names what is unknown. */
-TEST(laz_bad_vlr)
+/* Loads ../shared/data/laz/name into *b (and a scratch copy's room *m),
+ * with the LASzip VLR payload's offset in *v. 0 when there is no data
+ * folder (the test passes unchecked there) or it cannot be loaded (a
+ * failure). */
+static int load_laz(int *failures_, const char *name, uint8_t **b, uint8_t **m, size_t *len,
+                    size_t *v)
 {
     const char *data = test_data_dir();
     if (!data)
-        return;
+        return 0;
     char laz[1024];
-    snprintf(laz, sizeof laz, "%.900s/laz/lazperf_point-color.laz", data);
-    size_t len;
-    uint8_t *b = slurp(laz, &len), *m = malloc(len);
-    size_t v = b ? laszip_payload(b, len) : 0;
-    if (!b || !m || !v) {
+    snprintf(laz, sizeof laz, "%.900s/laz/%s", data, name);
+    *b = slurp(laz, len);
+    *m = *b ? malloc(*len) : NULL;
+    *v = *b ? laszip_payload(*b, *len) : 0;
+    if (!*b || !*m || !*v) {
         CHECK_MSG(0, "cannot load %s", laz);
-        free(b), free(m);
-        return;
+        free(*b), free(*m);
+        return 0;
     }
+    return 1;
+}
+
+/* Damage to a layered chunk (laspy_append-bug.laz: 1 chunk, record 41
+ * bytes, 14 layers): byte counts that pass the chunk, a point count that
+ * contradicts the table, a corrupt layer, a cut file, unknown item
+ * versions and waveform items: one line naming the file each. */
+TEST(laz_layered_damaged)
+{
+    size_t len, v;
+    uint8_t *b, *m;
+    if (!load_laz(failures_, "laspy_append-bug.laz", &b, &m, &len, &v))
+        return;
+    uint32_t off;
+    memcpy(&off, b + 96, 4);
+    size_t count_at = off + 8 + 41, sizes_at = count_at + 4, layers_at = sizes_at + 14 * 4;
+    struct { const char *name; size_t at; uint32_t value; const char *expect; } cases[] = {
+        {"layer_size.laz", sizes_at, 1u << 30, "layer byte counts pass the chunk's end"},
+        {"layer_shift.laz", sizes_at + 4, 1, "LAZ chunk 0"},
+        {"chunk_count.laz", count_at, 1000, "point count does not match"},
+        {"layer_garbage.laz", layers_at + 500, 0x5A5A5A5Au, "LAZ chunk 0"},
+        {"version.laz", v + 34 + 4, 4, "unknown LAZ item version 4 of POINT14"},
+        {"wave.laz", v + 34 + 6 * 1, 13, "waveform packets in LAZ are not supported"},
+        {"cut.laz", 0, 0, "LAZ chunk 0"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(m, b, len);
+        size_t n = len;
+        if (!cases[i].at)
+            n = layers_at + 20000; /* cut inside the layers */
+        else if (cases[i].at >= v && cases[i].at < v + 100)
+            memcpy(m + cases[i].at, &cases[i].value, 2);
+        else
+            memcpy(m + cases[i].at, &cases[i].value, 4);
+        lt_expect_failure(failures_, cases[i].name, m, n, cases[i].expect);
+    }
+    free(b), free(m);
+}
+
+
+/* A LASzip VLR that contradicts the header or names what is unknown. */
+TEST(laz_bad_vlr)
+{
+    size_t len, v;
+    uint8_t *b, *m;
+    if (!load_laz(failures_, "lazperf_point-color.laz", &b, &m, &len, &v))
+        return;
     struct { const char *name; size_t at; uint16_t value; const char *expect; } cases[] = {
         {"compressor.laz", 0, 7, "unknown LAZ compressor 7"},
         {"coder.laz", 2, 1, "unknown LAZ coder 1"},
@@ -363,7 +458,8 @@ TEST(laz_random_damage)
     if (!data)
         return;
     static const char *files[] = {"rlas_extra_byte.laz", "lazperf_point-color.laz",
-                                  "pdal_ellipsoid_copc-draft.laz"};
+                                  "pdal_ellipsoid_copc-draft.laz", "rlas_las14_prf6.laz",
+                                  "laspy_simple_with_page.copc.laz"};
     unsigned seed = 12345;
     for (size_t f = 0; f < sizeof files / sizeof *files; f++) {
         char laz[1024];
