@@ -42,9 +42,10 @@ double wpd_budget_sample_fraction(uint64_t target, uint64_t points);
 
 /* Bytes a point of a tile in flight costs: coordinates, index and halo flag
  * (33), the larger of the Poisson scratch and the smoothing surface grid,
- * and for the fraction f of a sample it may leave, that sample held while
- * its tile is worked on with its share of the neighbours' borders and of a
- * sweep's fields. Records never enter tiles. */
+ * and for the fraction f of a sample it may leave, what that sample costs
+ * while its tile is smoothed (the largest of the phases: held with its
+ * share of the neighbours' context and its smoothing state). Records never
+ * enter tiles. */
 size_t wpd_budget_tile_point_bytes(double sample_fraction);
 
 /* Smallest budget a tiled run to target samples out of points accepts:
