@@ -100,8 +100,10 @@ static int border_part(const exact_sweep *sw, int u, part *p, wpd_error *err)
     memset(p, 0, sizeof *p);
     p->n = sw->tile[u].nborder;
     for (int i = 0; i < 6; i++)
-        if (wpd_exact_peek(sw, u, field[i], &p->copy[i], at[i], err))
+        if (wpd_exact_peek(sw, u, field[i], &p->copy[i], at[i], err)) {
+            p->n = 0; /* nothing to read: the caller frees what was read */
             return -1;
+        }
     return 0;
 }
 
@@ -149,7 +151,8 @@ static int gather(const exact_sweep *sw, int t, view *v, wpd_error *err)
             own_part(&sw->tile[t], &parts[u]);
         else if (sw->tile[u].nborder && wpd_tile_gap(&plan->tiles[t], &plan->tiles[u]) <= reach)
             rc = border_part(sw, u, &parts[u], err);
-        cap += add_part(sw, t, &parts[u], u == t, &probe);
+        if (rc == 0)
+            cap += add_part(sw, t, &parts[u], u == t, &probe);
     }
     if (rc == 0 && view_alloc(v, cap))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count in tile %d", t);
