@@ -7,24 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/bits.h"
 #include "core/select.h"
 #include "core/sort.h"
 #include "spill/blobs.h"
 #include "wpd/eliminate.h"
-
-static uint64_t bits_of(double v)
-{
-    uint64_t b;
-    memcpy(&b, &v, sizeof b);
-    return b;
-}
-
-static double double_of(uint64_t b)
-{
-    double v;
-    memcpy(&v, &b, sizeof v);
-    return v;
-}
 
 static int half_of(const wpd_tile_samples *s, size_t i)
 {
@@ -198,10 +185,10 @@ static void count_tile(const key_set *ks, const exact_tile *x, uint64_t mask, ui
 {
     if (ks->kind == KEY_COST)
         for (size_t i = 0; i < x->n; i++)
-            count_key(bits_of(cost_of(x, i)), mask, prefix, shift, hist);
+            count_key(wpd_double_bits(cost_of(x, i)), mask, prefix, shift, hist);
     else if (ks->kind == KEY_NEAREST)
         for (size_t i = 0; i < x->n; i++)
-            count_key(bits_of(x->nn[i]), mask, prefix, shift, hist);
+            count_key(wpd_double_bits(x->nn[i]), mask, prefix, shift, hist);
     else
         for (size_t c = 0; c < x->ncand; c++)
             if (x->state[c] == EXACT_TAKEN) {
@@ -254,7 +241,7 @@ static int pick_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
     if (x->n == 0 || wpd_exact_hold(sw, t, EF_COSTS, err))
         return x->n == 0 ? 0 : -1;
     for (size_t i = 0; i < x->n; i++)
-        x->ncand += bits_of(cost_of(x, i)) <= sw->tau;
+        x->ncand += wpd_double_bits(cost_of(x, i)) <= sw->tau;
     int rc = x->ncand == 0 ? 0 : -1;
     if (x->ncand && wpd_exact_alloc(sw, t, EF_CANDS | EF(EF_STATE) | EF(EF_NEXT), err) == 0 &&
         wpd_store_load(run, t, err) == 0) {
@@ -262,13 +249,13 @@ static int pick_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
         size_t k = 0;
         for (size_t i = 0; i < x->n; i++) {
             double c = cost_of(x, i);
-            if (bits_of(c) > sw->tau)
+            if (wpd_double_bits(c) > sw->tau)
                 continue;
             x->cand[k] = (uint32_t)i;
             x->cgid[k] = s->gid[i];
             memcpy(x->cxyz + 3 * k, s->xyz + 3 * i, 3 * sizeof *x->cxyz);
-            x->ccost[k] = double_of(x->cost[i]);
-            x->rank[k++] = bits_of(c * wpd_eliminate_crowd_factor(x->nn[i], sw->median));
+            x->ccost[k] = wpd_bits_double(x->cost[i]);
+            x->rank[k++] = wpd_double_bits(c * wpd_eliminate_crowd_factor(x->nn[i], sw->median));
         }
         x->undecided = x->ncand;
         wpd_store_drop(run, t);
@@ -426,10 +413,10 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
     int failed = 0;
     sw->tau = select_key(sw, KEY_COST, 0, (bound < live ? bound : live) - 1, NULL, hist, &failed,
                          err);
-    sw->median = double_of(select_key(sw, KEY_NEAREST, 0, live / 2, NULL, hist, &failed, err));
+    sw->median = wpd_bits_double(select_key(sw, KEY_NEAREST, 0, live / 2, NULL, hist, &failed, err));
     /* No two candidates conflict farther apart than twice the largest raw
      * cost's root: at most the bound's, and costs stop at the reach. */
-    sw->conflict = 2 * sqrt(fmin(double_of(sw->tau), sw->reach * sw->reach));
+    sw->conflict = 2 * sqrt(fmin(wpd_bits_double(sw->tau), sw->reach * sw->reach));
     if (failed || wpd_run_tiles_any_order(run, NULL, pick_tile, sw, err) || decide_all(sw, err))
         return -1;
     long long taken = count_taken(sw, err);

@@ -6,22 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/bits.h"
 #include "core/knn.h"
 #include "core/sort.h"
-
-static uint64_t bits_of(double v)
-{
-    uint64_t b;
-    memcpy(&b, &v, sizeof b);
-    return b;
-}
-
-static double double_of(uint64_t b)
-{
-    double v;
-    memcpy(&v, &b, sizeof v);
-    return v;
-}
 
 /* *p = max(*p, v) for any number of threads. */
 static void atomic_max(uint64_t *p, uint64_t v)
@@ -261,7 +248,7 @@ static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[
     double reach2 = e->reach * e->reach;
     int got = two_nearest(&e->grid, near, have, c, p, 1.5 * e->spacing, idx, d2);
     if (got >= 1 && d2[0] <= reach2)
-        atomic_max(&e->cost[idx[0]], bits_of(got == 2 && d2[1] < reach2 ? d2[1] : reach2));
+        atomic_max(&e->cost[idx[0]], wpd_double_bits(got == 2 && d2[1] < reach2 ? d2[1] : reach2));
 }
 
 void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t *skip,
@@ -337,7 +324,7 @@ static int clear_around(const wpd_eliminate *e, const uint8_t *taken, double tak
 {
     const wpd_grid *g = &e->grid;
     const double *q = e->xyz + 3 * (size_t)s;
-    double own = double_of(e->cost[s]);
+    double own = wpd_bits_double(e->cost[s]);
     double reach2 = 4 * (own > taken_cost ? own : taken_cost);
     int64_t lo[3], hi[3];
     if (!wpd_grid_box(g, q, sqrt(reach2), lo, hi))
@@ -351,7 +338,7 @@ static int clear_around(const wpd_eliminate *e, const uint8_t *taken, double tak
                     continue;
                 const double *p = g->xyz + 3 * (size_t)k;
                 double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-                double theirs = double_of(e->cost[g->id[k]]);
+                double theirs = wpd_bits_double(e->cost[g->id[k]]);
                 if (dx * dx + dy * dy + dz * dz <= 4 * (own > theirs ? own : theirs))
                     return 0;
             }
@@ -369,7 +356,7 @@ static void by_cost(const wpd_eliminate *e, uint64_t *key, uint32_t *val)
     uint64_t top = 0;
     for (size_t i = 0; i < m; i++) {
         val[i] = e->live_idx[i];
-        key[i] = bits_of(cost_of(e, val[i]));
+        key[i] = wpd_double_bits(cost_of(e, val[i]));
         top |= key[i];
     }
     int bits = 1;
@@ -389,7 +376,7 @@ static void by_rank(const wpd_eliminate *e, const double *crowd, uint32_t *cand,
     wpd_radix_sort_u64(key, cand, nc, 32, key + nc, cand + nc);
     uint64_t top = 0;
     for (size_t i = 0; i < nc; i++) {
-        key[i] = bits_of(rank_of(e, crowd, cand[i]));
+        key[i] = wpd_double_bits(rank_of(e, crowd, cand[i]));
         top |= key[i];
     }
     int bits = 1;
@@ -496,7 +483,7 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
     for (size_t i = 0; i < nc && deleted < quota; i++)
         if (clear_around(e, taken, taken_cost, cand[i])) {
             taken[cand[i]] = 1;
-            taken_cost = fmax(taken_cost, double_of(e->cost[cand[i]]));
+            taken_cost = fmax(taken_cost, wpd_bits_double(e->cost[cand[i]]));
             e->alive[cand[i]] = 0;
             deleted++;
         }

@@ -44,9 +44,9 @@
 
 #include <stddef.h>
 #include <stdint.h>
-#include <string.h>
 
 #include "common/error.h"
+#include "core/bits.h"
 #include "core/grid.h"
 
 typedef struct wpd_eliminate {
@@ -81,8 +81,7 @@ double wpd_eliminate_nearest(const wpd_eliminate *e, uint32_t s);
  * sample of radius r/2. */
 static inline double wpd_eliminate_cost_of(uint64_t cost_bits, int half)
 {
-    double c;
-    memcpy(&c, &cost_bits, sizeof c);
+    double c = wpd_bits_double(cost_bits);
     return half ? 4 * c : c;
 }
 
