@@ -102,25 +102,51 @@ void wpd_store_drop(wpd_run *run, int t)
         wpd_samples_free(&run->store[t]);
 }
 
+/* Which samples a subset keeps: those within dist of the faces of tile's
+ * box or outside it (faces set: a border), else those within dist of the
+ * box. */
+typedef struct where {
+    const wpd_tile *tile;
+    double dist;
+    int faces;
+} where;
+
+static int keeps(const where *w, const double *p)
+{
+    return w->faces ? wpd_tile_near_faces(w->tile, p, w->dist)
+                    : wpd_tile_distance(w->tile, p) <= w->dist;
+}
+
+/* The samples of src that w keeps, in order, into out (malloc'd). Returns
+ * 0 or -1 (out of memory). */
+static int subset(const wpd_tile_samples *src, const where *w, wpd_tile_samples *out)
+{
+    size_t m = 0;
+    for (size_t i = 0; i < src->n; i++)
+        m += keeps(w, src->xyz + 3 * i);
+    if (wpd_samples_alloc(out, m, src->edge != NULL))
+        return -1;
+    for (size_t i = 0; i < src->n; i++)
+        if (keeps(w, src->xyz + 3 * i)) {
+            out->gid[out->n] = src->gid[i];
+            memcpy(out->xyz + 3 * out->n, src->xyz + 3 * i, 3 * sizeof *out->xyz);
+            if (out->edge)
+                out->edge[out->n] = src->edge[i];
+            out->n++;
+        }
+    return 0;
+}
+
 /* Tile t's border: its samples within the band of its box's faces (or
  * outside the box: smoothing may have moved them there). */
 static int save_border(wpd_run *run, int t, const wpd_tile_samples *s, wpd_error *err)
 {
-    const wpd_tile *tile = &run->plan.tiles[t];
-    size_t m = 0;
-    for (size_t i = 0; i < s->n; i++)
-        m += wpd_tile_near_faces(tile, s->xyz + 3 * i, WPD_STORE_BAND * run->halo);
+    where w = {&run->plan.tiles[t], WPD_STORE_BAND * run->halo, 1};
     wpd_tile_samples b;
-    if (wpd_samples_alloc(&b, m, s->edge != NULL))
+    if (subset(s, &w, &b)) {
+        wpd_samples_free(&b);
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    for (size_t i = 0; i < s->n; i++)
-        if (wpd_tile_near_faces(tile, s->xyz + 3 * i, WPD_STORE_BAND * run->halo)) {
-            b.gid[b.n] = s->gid[i];
-            memcpy(b.xyz + 3 * b.n, s->xyz + 3 * i, 3 * sizeof *b.xyz);
-            if (b.edge)
-                b.edge[b.n] = s->edge[i];
-            b.n++;
-        }
+    }
     return wpd_runs_put(run->border, t, b.gid, b.xyz, b.edge, b.n, err);
 }
 
@@ -138,39 +164,19 @@ int wpd_store_save(wpd_run *run, int t, wpd_error *err)
     return rc;
 }
 
-/* The samples of u within dist of t's box, from src, into out. */
-static int filter_near(const wpd_run *run, int t, const wpd_tile_samples *src, double dist,
-                       wpd_tile_samples *out)
-{
-    const wpd_tile *tile = &run->plan.tiles[t];
-    size_t m = 0;
-    for (size_t i = 0; i < src->n; i++)
-        m += wpd_tile_distance(tile, src->xyz + 3 * i) <= dist;
-    if (wpd_samples_alloc(out, m, src->edge != NULL))
-        return -1;
-    for (size_t i = 0; i < src->n; i++)
-        if (wpd_tile_distance(tile, src->xyz + 3 * i) <= dist) {
-            out->gid[out->n] = src->gid[i];
-            memcpy(out->xyz + 3 * out->n, src->xyz + 3 * i, 3 * sizeof *out->xyz);
-            if (out->edge)
-                out->edge[out->n] = src->edge[i];
-            out->n++;
-        }
-    return 0;
-}
-
 int wpd_store_near(const wpd_run *run, int t, int u, double dist, wpd_tile_samples *out,
                    wpd_error *err)
 {
     memset(out, 0, sizeof *out);
+    where w = {&run->plan.tiles[t], dist, 0};
     /* In files, never the copy u's own thread may hold (and free) now. */
     if (!run->files)
-        return filter_near(run, t, &run->store[u], dist, out)
+        return subset(&run->store[u], &w, out)
                    ? wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t) : 0;
     wpd_tile_samples b = {0};
     if (wpd_runs_read(run->border, u, &b.gid, &b.xyz, &b.edge, &b.n, err))
         return -1;
-    int rc = filter_near(run, t, &b, dist, out);
+    int rc = subset(&b, &w, out);
     wpd_samples_free(&b);
     return rc ? wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t) : 0;
 }
