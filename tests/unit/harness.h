@@ -25,6 +25,9 @@ const char *test_data_dir(void);
 /* A fresh private temporary directory for this test run (created once,
  * removed at exit). */
 const char *test_tmp_dir(void);
+/* How many entries of test_tmp_dir() start with prefix; the path of the
+ * last one found into buf (size bytes). */
+int test_tmp_entries(const char *prefix, char *buf, size_t size);
 
 #define TEST(name)                                                        \
     static void test_fn_##name(int *failures_);                           \

@@ -4,6 +4,7 @@
 #endif
 #include "harness.h"
 
+#include <dirent.h>
 #include <ftw.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -53,6 +54,20 @@ const char *test_tmp_dir(void)
         atexit(remove_tmp_dir);
     }
     return tmp_dir;
+}
+
+int test_tmp_entries(const char *prefix, char *buf, size_t size)
+{
+    DIR *d = opendir(test_tmp_dir());
+    int found = 0;
+    for (struct dirent *e; d && (e = readdir(d));)
+        if (!strncmp(e->d_name, prefix, strlen(prefix))) {
+            snprintf(buf, size, "%s/%s", test_tmp_dir(), e->d_name);
+            found++;
+        }
+    if (d)
+        closedir(d);
+    return found;
 }
 
 /* Registration order is reversed by the linked list; run in source order. */

@@ -1,7 +1,6 @@
 /* test_blobs.c - numbered byte arrays in files (spill/blobs.h): what is
  * put comes back, a blob never put is empty, a file cut short is an error
  * naming it, and closing removes the directory. */
-#include <dirent.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,22 +9,6 @@
 
 #include "harness.h"
 #include "spill/blobs.h"
-
-/* The set's directory (the only wpd-blobs-* entry of the test's
- * temporary directory) into buf; the number of such entries. */
-static int blobs_dir(char *buf, size_t size)
-{
-    DIR *d = opendir(test_tmp_dir());
-    int found = 0;
-    for (struct dirent *e; d && (e = readdir(d));)
-        if (!strncmp(e->d_name, "wpd-blobs-", 10)) {
-            snprintf(buf, size, "%s/%s", test_tmp_dir(), e->d_name);
-            found++;
-        }
-    if (d)
-        closedir(d);
-    return found;
-}
 
 TEST(blobs_round_trip_and_close_removes_everything)
 {
@@ -50,7 +33,7 @@ TEST(blobs_round_trip_and_close_removes_everything)
         free(got);
     }
     char dir[1024], path[1200];
-    CHECK(blobs_dir(dir, sizeof dir) == 1);
+    CHECK(test_tmp_entries("wpd-blobs-", dir, sizeof dir) == 1);
     snprintf(path, sizeof path, "%s/b-3", dir);
     CHECK(truncate(path, 10) == 0);
     void *got = NULL;
@@ -58,5 +41,5 @@ TEST(blobs_round_trip_and_close_removes_everything)
     CHECK(wpd_blobs_get(b, 3, &got, &n, &err) == -1 && got == NULL);
     CHECK_MSG(err.code == WPD_E_IO && strstr(err.msg, "b-3"), "%s", err.msg);
     wpd_blobs_close(b);
-    CHECK(blobs_dir(dir, sizeof dir) == 0);
+    CHECK(test_tmp_entries("wpd-blobs-", dir, sizeof dir) == 0);
 }

@@ -1,6 +1,5 @@
 /* test_runs.c - sorted runs of samples (spill/runs.h) and their k-way
  * merge (spill/run_merge.h), against a sort of the same samples. */
-#include <dirent.h>
 #include <fcntl.h>
 #include <stdlib.h>
 #include <string.h>
@@ -242,29 +241,13 @@ TEST(runs_refuse_samples_out_of_order)
     }
 }
 
-/* The private directory of the set: the only wpd-runs-* entry of the
- * test's temporary directory, into buf. */
-static int runs_dir(char *buf, size_t size)
-{
-    DIR *d = opendir(test_tmp_dir());
-    int found = 0;
-    for (struct dirent *e; d && (e = readdir(d));)
-        if (!strncmp(e->d_name, "wpd-runs-", 9)) {
-            snprintf(buf, size, "%s/%s", test_tmp_dir(), e->d_name);
-            found++;
-        }
-    if (d)
-        closedir(d);
-    return found;
-}
-
 TEST(runs_damaged_file_is_an_error_and_close_removes_everything)
 {
     wpd_runs *rs = open_set(1, 0, 64);
     unsigned w[2] = {1, 1};
     fill_runs(rs, 2, w, 500, 1, 9);
     char dir[1024], path[1200];
-    CHECK(runs_dir(dir, sizeof dir) == 1);
+    CHECK(test_tmp_entries("wpd-runs-", dir, sizeof dir) == 1);
     snprintf(path, sizeof path, "%s/run-%06d", dir, 0);
     int fd = open(path, O_WRONLY);
     CHECK(fd >= 0 && pwrite(fd, "\xff\xff\xff\xff", 4, 40) == 4);
@@ -280,7 +263,7 @@ TEST(runs_damaged_file_is_an_error_and_close_removes_everything)
     wpd_runs_close(rs);
     struct stat st;
     CHECK_MSG(stat(dir, &st) != 0, "%s left behind", dir);
-    CHECK(runs_dir(dir, sizeof dir) == 0);
+    CHECK(test_tmp_entries("wpd-runs-", dir, sizeof dir) == 0);
 }
 
 TEST(runs_fan_in_grows_with_the_budget)
