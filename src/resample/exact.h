@@ -65,6 +65,8 @@ typedef struct exact_tile {
     size_t ncand;     /* its candidates */
     size_t nborder;   /* its candidates near its faces */
     size_t undecided; /* candidates still EXACT_UNDECIDED */
+    size_t taken;     /* candidates EXACT_TAKEN (counted with undecided after
+                         each round: once all are decided, the sweep's) */
     uint64_t *cost;
     double *nn;
     uint8_t *half;

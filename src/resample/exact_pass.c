@@ -293,9 +293,11 @@ static long advance(exact_sweep *sw, int t, wpd_error *err)
     if (wpd_exact_hold(sw, t, EF(EF_STATE) | EF(EF_NEXT), err))
         return -1;
     memcpy(x->state, x->next, x->ncand);
-    x->undecided = 0;
-    for (size_t c = 0; c < x->ncand; c++)
+    x->undecided = x->taken = 0;
+    for (size_t c = 0; c < x->ncand; c++) {
         x->undecided += x->state[c] == EXACT_UNDECIDED;
+        x->taken += x->state[c] == EXACT_TAKEN;
+    }
     wpd_exact_let_go(sw, t, EF(EF_NEXT));
     return wpd_exact_keep(sw, t, EF(EF_STATE), err) ? -1 : (long)x->undecided;
 }
@@ -383,23 +385,6 @@ static int delete_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     return rc;
 }
 
-/* Taken candidates over all tiles, or -1 with err set. */
-static long long count_taken(exact_sweep *sw, wpd_error *err)
-{
-    long long taken = 0;
-    for (int t = 0; t < sw->run->plan.ntiles; t++) {
-        exact_tile *x = &sw->tile[t];
-        if (x->ncand == 0)
-            continue;
-        if (wpd_exact_hold(sw, t, EF(EF_STATE), err))
-            return -1;
-        for (size_t c = 0; c < x->ncand; c++)
-            taken += x->state[c] == EXACT_TAKEN;
-        wpd_exact_let_go(sw, t, EF(EF_STATE));
-    }
-    return taken;
-}
-
 /* One sweep from live samples towards the target. */
 static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wpd_error *err)
 {
@@ -419,10 +404,10 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
     sw->conflict = 2 * sqrt(fmin(wpd_bits_double(sw->tau), sw->reach * sw->reach));
     if (failed || wpd_run_tiles_any_order(run, NULL, pick_tile, sw, err) || decide_all(sw, err))
         return -1;
-    long long taken = count_taken(sw, err);
-    if (taken < 0)
-        return -1;
-    cut k = {sw, (size_t)taken <= quota, 0, 0};
+    size_t taken = 0;
+    for (int t = 0; t < run->plan.ntiles; t++)
+        taken += sw->tile[t].taken;
+    cut k = {sw, taken <= quota, 0, 0};
     if (!k.all) {
         uint64_t below = 0;
         k.rank = select_key(sw, KEY_TAKEN_RANK, 0, quota - 1, &below, hist, &failed, err);
