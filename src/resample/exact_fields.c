@@ -32,7 +32,11 @@ static void **slot(exact_tile *x, exact_field f)
 
 static size_t bytes_of(const exact_tile *x, exact_field f)
 {
-    static const size_t size[EF_COUNT] = {8, 8, 1, 4, 8, 24, 8, 8, 1, 1, 4, 24, 8, 8, 8};
+    static const size_t size[EF_COUNT] = {
+        [EF_COST] = 8, [EF_NN] = 8, [EF_HALF] = 1,
+        [EF_CAND] = 4, [EF_CGID] = 8, [EF_CXYZ] = 24, [EF_CCOST] = 8, [EF_RANK] = 8,
+        [EF_STATE] = 1, [EF_NEXT] = 1,
+        [EF_BIDX] = 4, [EF_BXYZ] = 24, [EF_BGID] = 8, [EF_BCOST] = 8, [EF_BRANK] = 8};
     size_t count = f <= EF_HALF ? x->n : f <= EF_NEXT ? x->ncand : x->nborder;
     return size[f] * count;
 }
