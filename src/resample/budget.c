@@ -9,16 +9,22 @@ double wpd_budget_sample_fraction(uint64_t target, uint64_t points)
 
 size_t wpd_budget_tile_point_bytes(double sample_fraction)
 {
-    /* Coordinates, index and halo flag (33), plus the larger of what the two
-     * passes over a tile add: Poisson (candidate and kept lists 8, grid copy
-     * and slot ids 28, priority, band, state and order 14, cells ~8) or
-     * smoothing (surface grid ~40): 128. A sample: in smoothing itself and
-     * its share of the neighbours' context held, with its neighbour lists,
-     * cell and move state: measured 340 bytes (NC 2 x 2 to 50 %: peak RSS
-     * 206 MB smoothed, 109 MB with --no-smooth, two tiles of 142 K samples
-     * in flight), more than a sweep of the exact count needs (its cost
-     * fields 17, as a candidate ~90 with its border and view): 360. */
-    return 128 + (size_t)(360 * sample_fraction);
+    /* A point a tile reads (its own and its halo's): coordinates, index and
+     * halo flag (33) plus what the Poisson pass adds (candidate and kept
+     * lists 8, grid copy and slot ids 28, priority, band, state and order
+     * 14, cells ~8): 128 whatever n. Smoothing holds the tile's points in
+     * its surface grid and its samples with their share of the neighbours'
+     * context, neighbour lists, cell and move state: 74 + 422 f a point,
+     * fitted to the smoothing peaks of the 100 M synthetic city to 10 % and
+     * 50 % (peak RSS over the points read by two tiles in flight: 106 and
+     * 286 bytes, at 0.82 of the model like the Poisson peak at 1 %), and
+     * more than a sweep of the exact count needs (its cost fields 17 a
+     * sample, as a candidate ~90 with its border and view). The larger of
+     * the two makes the peak nearly flat in n: about 220 MB under --mem
+     * 512M on 2 threads from 1 % to 50 %, where 128 + 360 f gave 234, 185
+     * and 216 MB. */
+    double smoothing = 74 + 422 * sample_fraction;
+    return smoothing > 128 ? (size_t)smoothing : 128;
 }
 
 size_t wpd_budget_min(uint64_t target, uint64_t points)

@@ -71,53 +71,92 @@ static int split_tile(const prefix *p, wpd_tile *t, wpd_tile *n)
     return 0;
 }
 
-/* Index of the tile to split next: the most points among splittable
- * tiles that must be split, -1 when none. */
-static int next_to_split(const wpd_tile *tiles, int n, const uint8_t *stuck, uint64_t max_points,
-                         int min_tiles)
+/* Points a tile reads beyond its own: those within the halo outside its
+ * faces, from the density grid - the slab of whole cells along each face,
+ * scaled by the halo's share of the slab's width (cells are usually wider
+ * than the halo). At a large radius (a small n) the halo adds an eighth to
+ * a tile, and a tile's memory goes with the points it reads. */
+static uint64_t halo_points(const prefix *p, const wpd_tile *t, double halo_cells)
+{
+    int w = (int)ceil(halo_cells);
+    if (w < 1)
+        return 0;
+    double share = halo_cells / w, sum = 0;
+    for (int a = 0; a < 3; a++)
+        for (int side = 0; side < 2; side++) {
+            int lo[3], hi[3];
+            memcpy(lo, t->lo, sizeof lo);
+            memcpy(hi, t->hi, sizeof hi);
+            if (side == 0) {
+                hi[a] = t->lo[a];
+                lo[a] = t->lo[a] > w ? t->lo[a] - w : 0;
+            } else {
+                lo[a] = t->hi[a];
+                hi[a] = t->hi[a] + w < p->dim[a] ? t->hi[a] + w : p->dim[a];
+            }
+            if (lo[a] < hi[a])
+                sum += share * (double)box_count(p, lo, hi);
+        }
+    return (uint64_t)sum;
+}
+
+/* Index of the tile to split next: the most points read (own and halo)
+ * among splittable tiles that must be split, -1 when none. */
+static int next_to_split(const uint64_t *load, int n,
+                         const uint8_t *stuck, uint64_t max_points, int min_tiles)
 {
     int best = -1;
     for (int i = 0; i < n; i++)
-        if (!stuck[i] && (tiles[i].points > max_points || n < min_tiles) &&
-            (best < 0 || tiles[i].points > tiles[best].points))
+        if (!stuck[i] && (load[i] > max_points || n < min_tiles) &&
+            (best < 0 || load[i] > load[best]))
             best = i;
     return best;
 }
 
 static int cut_tiles(const wpd_scan *s, const prefix *p, uint64_t max_points, int min_tiles,
-                     wpd_plan *out)
+                     double halo, wpd_plan *out)
 {
     int cap = 64, n = 1;
+    double halo_cells = halo / s->cell;
     wpd_tile *tiles = calloc((size_t)cap, sizeof *tiles);
+    uint64_t *load = calloc((size_t)cap, sizeof *load);
     uint8_t *stuck = calloc((size_t)cap, 1);
-    if (!tiles || !stuck)
+    if (!tiles || !load || !stuck)
         goto fail;
     memcpy(tiles[0].hi, s->dim, sizeof tiles[0].hi);
-    tiles[0].points = s->count;
-    for (int i; (i = next_to_split(tiles, n, stuck, max_points, min_tiles)) >= 0;) {
+    tiles[0].points = load[0] = s->count;
+    for (int i; (i = next_to_split(load, n, stuck, max_points, min_tiles)) >= 0;) {
         if (n == cap) {
             cap *= 2;
             wpd_tile *t = realloc(tiles, (size_t)cap * sizeof *t);
-            uint8_t *st = realloc(stuck, (size_t)cap);
             if (t)
                 tiles = t;
+            uint64_t *l = realloc(load, (size_t)cap * sizeof *l);
+            if (l)
+                load = l;
+            uint8_t *st = realloc(stuck, (size_t)cap);
             if (st)
                 stuck = st;
-            if (!t || !st)
+            if (!t || !l || !st)
                 goto fail;
             memset(stuck + n, 0, (size_t)(cap - n));
         }
-        if (split_tile(p, &tiles[i], &tiles[n]) < 0)
+        if (split_tile(p, &tiles[i], &tiles[n]) < 0) {
             stuck[i] = 1;
-        else
-            n++;
+            continue;
+        }
+        load[i] = tiles[i].points + halo_points(p, &tiles[i], halo_cells);
+        load[n] = tiles[n].points + halo_points(p, &tiles[n], halo_cells);
+        n++;
     }
+    free(load);
     free(stuck);
     out->tiles = tiles;
     out->ntiles = n;
     return 0;
 fail:
     free(tiles);
+    free(load);
     free(stuck);
     return -1;
 }
@@ -204,7 +243,7 @@ int wpd_plan_tiles(const wpd_scan *scan, uint64_t max_points, int min_tiles, dou
     size_t cells = (size_t)scan->dim[0] * scan->dim[1] * scan->dim[2];
     out->cell_tile = malloc(cells * sizeof *out->cell_tile);
     int failed = !out->cell_tile || prefix_build(&p, scan) ||
-                 cut_tiles(scan, &p, max_points, min_tiles, out);
+                 cut_tiles(scan, &p, max_points, min_tiles, halo, out);
     if (!failed) {
         set_boxes(scan, out);
         failed = link_and_colour(out);

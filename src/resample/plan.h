@@ -1,9 +1,11 @@
 /* plan.h - cutting the cloud into tiles that fit the memory budget.
  *
  * Tiles are boxes of density-grid cells (the scan's coarse voxels), found
- * by splitting the whole grid kd-tree style - the tile with the most points
- * is split across its longest side at its median - until every tile holds
- * at most max_points (and there are at least min_tiles). Two tiles are
+ * by splitting the whole grid kd-tree style - the tile that reads the most
+ * points is split across its longest side at its median - until every tile
+ * reads at most max_points, its own and those within the halo outside its
+ * faces (estimated from the grid), and there are at least min_tiles. Two
+ * tiles are
  * neighbours when their boxes come within the halo width of each other; a
  * greedy colouring in tile order gives neighbours different colours, so the
  * tiles of one colour can be processed at the same time while each sees

@@ -232,7 +232,8 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     if (run->p->sharp && label_sharp(run, &v->d, NULL, threads, &v->edge, err))
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
-    double blind_from = run->halo - run->res->radius_estimate;
+    /* r-balls past the halo, and sharp labels (computed within r0) */
+    double blind_from = run->halo - fmax(pc->r, run->res->radius_estimate);
     size_t ncand = 0, nfixed = 0, ntiles = (size_t)run->plan.ntiles;
     cursors at = {calloc(ntiles, sizeof *at.store), calloc(ntiles, sizeof *at.unknown)};
     int rc = at.store && at.unknown ? 0 : -1;

@@ -230,6 +230,27 @@ TEST(wpd_refine_follows_eq_5_until_a_pass_keeps_n)
     CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_GAVE_UP);
 }
 
+/* A first pass far above n is redone at the area-scaled radius, capped at
+ * 1.25 r0 (the halo's margin); later passes above n, or a first pass a
+ * little above it, are final. */
+TEST(wpd_refine_redoes_a_first_pass_that_overshoots_far)
+{
+    wpd_refine st;
+    wpd_refine_init(&st, 1000, 2.0, 10);
+    CHECK(wpd_refine_report(&st, 1500) == WPD_REFINE_AGAIN);
+    CHECK_MSG(fabs(st.r - 2.0 * pow(1.5 / 1.06, 1 / 2.5)) < 1e-12, "r %g", st.r);
+    CHECK(wpd_refine_report(&st, 1600) == WPD_REFINE_DONE); /* only the first pass */
+    wpd_refine_init(&st, 1000, 2.0, 10);
+    CHECK(wpd_refine_report(&st, 8000) == WPD_REFINE_AGAIN);
+    CHECK_MSG(fabs(st.r - 2.5) < 1e-12, "capped r %g", st.r);
+    CHECK(wpd_refine_report(&st, 900) == WPD_REFINE_AGAIN); /* then eq. 5 */
+    CHECK(st.r < 2.5);
+    wpd_refine_init(&st, 1000, 2.0, 10);
+    CHECK(wpd_refine_report(&st, 1150) == WPD_REFINE_DONE);
+    wpd_refine_init(&st, 1000, 2.0, 1);
+    CHECK(wpd_refine_report(&st, 3000) == WPD_REFINE_DONE); /* no pass left */
+}
+
 /* The scene as a binary PLY (x y z doubles, file order = global index)
  * in a fresh directory, resampled by the driver: in memory (min_tiles 0)
  * or through at least min_tiles tiles of spill in the same directory. */
@@ -303,7 +324,9 @@ static int flatten(wpd_resample_result *r, flat_samples *f)
 }
 
 /* The passes stop at the first count of n or more; the multiscale
- * estimate lands within 50 % above n at once (1.3-1.4 n on this scene). */
+ * estimate lands within 50 % above n at once (1.3-1.4 n on this scene),
+ * and such a first pass is redone at a larger radius (refine.h), which
+ * lands within 20 % above n (50 %: a count of 50 is noisy). */
 TEST(wpd_refinement_stops_at_a_pass_of_n_or_more)
 {
     scan s = scene(0.4, 5);
@@ -317,9 +340,11 @@ TEST(wpd_refinement_stops_at_a_pass_of_n_or_more)
             wpd_resample_result r;
             CHECK(run(&s, targets[t], &p, &r) == 0);
             CHECK_MSG(r.poisson_count >= targets[t] &&
-                          (m == 0 || (r.passes == 1 && r.poisson_count <= 1.5 * targets[t])),
-                      "method %d target %zu: %zu after %d passes", m, targets[t], r.poisson_count,
-                      r.passes);
+                          (m == 0 || (r.first_pass_count <= 1.5 * targets[t] &&
+                                      r.poisson_count <= (targets[t] < 100 ? 1.5 : 1.2) * targets[t] &&
+                                      r.passes <= 2)),
+                      "method %d target %zu: %zu after %d passes (first %zu)", m, targets[t],
+                      r.poisson_count, r.passes, r.first_pass_count);
             wpd_resample_result_free(&r);
         }
     }
