@@ -577,6 +577,13 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err);
     if (!cloud)
         return -1;
+    /* Compressed inputs are decoded once: the scan keeps their records for
+     * the tile and records passes (docs/engine.md, "Compressed inputs"). */
+    char cache_base[1024];
+    if (wpd_cloud_cache_records(cloud, spill_dir(o, cache_base, sizeof cache_base), err)) {
+        wpd_cloud_close(cloud);
+        return -1;
+    }
     if (!o->quiet)
         wpd_cloud_print_warnings(cloud, "resample", stderr);
     for (int i = 0; o->edge_label && !o->quiet && i < wpd_cloud_nfiles(cloud); i++)
@@ -640,6 +647,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
     info.peak_rss_kb = peak_rss_kb();
+    info.records_cached = wpd_cloud_cache_hits(cloud);
     if (rc == 0)
         rc = deliver(&info, &metrics_json, &sel, &pending, o, err);
 done:
@@ -653,7 +661,8 @@ done:
 }
 
 /* Removes what runs killed outright (SIGKILL, power loss) left behind:
- * their spill and run directories and temporary outputs. Live runs' are
+ * their spill, run, blob and record cache directories and temporary
+ * outputs. Live runs' are
  * kept. */
 static void sweep_leftovers(const resample_options *o)
 {
@@ -662,6 +671,7 @@ static void sweep_leftovers(const resample_options *o)
     wpd_tmpdir_sweep_stale(base, "wpd-spill");
     wpd_tmpdir_sweep_stale(base, "wpd-runs");
     wpd_tmpdir_sweep_stale(base, "wpd-blobs");
+    wpd_tmpdir_sweep_stale(base, "wpd-cache");
     if (o->output)
         wpd_outfile_sweep_stale(o->output);
 }

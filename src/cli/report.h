@@ -28,6 +28,7 @@ typedef struct wpd_run_info {
     uint64_t dropped;             /* non-finite points dropped */
     double t_write, t_total;
     long peak_rss_kb;
+    uint64_t records_cached;      /* records read back from the record cache */
     const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
 } wpd_run_info;
 

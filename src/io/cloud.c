@@ -1,6 +1,7 @@
 #include "io/cloud.h"
 
 #include "io/reader.h"
+#include "io/record_cache.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -17,6 +18,8 @@ struct wpd_cloud {
     int bounded;              /* reads stop at the end of a stretch (wpd_cloud_seek_stretch) */
     const wpd_point_filter *filter; /* classes delivered, or NULL: all */
     uint64_t filtered;        /* finite points the filter skipped */
+    wpd_record_cache **cache; /* [nfiles] decoded records kept, or NULL */
+    int owns_cache;           /* 0 in a reopened copy: the caches are shared */
 };
 
 /* Two dimensions agree if everything but a coordinate's scale/offset does. */
@@ -184,10 +187,19 @@ static long apply_filter(wpd_cloud *c, wpd_batch *b, wpd_error *err)
     return (long)kept;
 }
 
+/* Opens the reader of file f (the current one), with its cache if any. */
+static int open_current(wpd_cloud *c, int f, wpd_error *err)
+{
+    if (!(c->reader = wpd_reader_open(c->headers[f].path, err)))
+        return -1;
+    wpd_reader_use_cache(c->reader, c->cache ? c->cache[f] : NULL);
+    return 0;
+}
+
 long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err)
 {
     while (c->current < c->nfiles) {
-        if (!c->reader && !(c->reader = wpd_reader_open(c->headers[c->current].path, err)))
+        if (!c->reader && open_current(c, c->current, err))
             return -1;
         long got = wpd_reader_read(c->reader, b, err);
         if (got > 0 && c->filter && (got = apply_filter(c, b, err)) == 0)
@@ -219,9 +231,37 @@ wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err)
         paths[i] = c->headers[i].path;
     wpd_cloud *copy = wpd_cloud_open(paths, c->nfiles, err);
     free(paths);
-    if (copy)
+    if (copy) {
         copy->filter = c->filter;
+        copy->cache = c->cache;
+    }
     return copy;
+}
+
+int wpd_cloud_cache_records(wpd_cloud *c, const char *base, wpd_error *err)
+{
+    if (c->cache)
+        return 0;
+    if (!(c->cache = calloc((size_t)(c->nfiles ? c->nfiles : 1), sizeof *c->cache)))
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    c->owns_cache = 1;
+    for (int i = 0; i < c->nfiles; i++) {
+        wpd_reader *r = wpd_reader_open(c->headers[i].path, err);
+        int rc = r ? wpd_reader_new_cache(r, base, &c->cache[i], err) : -1;
+        wpd_reader_close(r);
+        if (rc)
+            return -1;
+    }
+    close_current(c); /* reopened with its cache */
+    return 0;
+}
+
+uint64_t wpd_cloud_cache_hits(const wpd_cloud *c)
+{
+    uint64_t hits = 0;
+    for (int i = 0; c->cache && i < c->nfiles; i++)
+        hits += c->cache[i] ? wpd_record_cache_hits(c->cache[i]) : 0;
+    return hits;
 }
 
 int wpd_cloud_can_seek(const wpd_cloud *c) { return c->all_seek; }
@@ -237,7 +277,7 @@ int wpd_cloud_seek_stretch(wpd_cloud *c, uint64_t index, uint64_t count, wpd_err
     c->current = f;
     if (f == c->nfiles)
         return 0; /* at the end: reads return 0 */
-    if (!c->reader && !(c->reader = wpd_reader_open(c->headers[f].path, err)))
+    if (!c->reader && open_current(c, f, err))
         return -1;
     if (!wpd_reader_can_seek(c->reader))
         return wpd_fail(err, WPD_E_USAGE, "%s: records of this format cannot be positioned",
@@ -337,6 +377,10 @@ void wpd_cloud_close(wpd_cloud *c)
     if (!c)
         return;
     close_current(c);
+    for (int i = 0; c->owns_cache && i < c->nfiles; i++)
+        wpd_record_cache_free(c->cache[i]);
+    if (c->owns_cache)
+        free(c->cache);
     for (int i = 0; i < c->nfiles; i++)
         wpd_header_free(&c->headers[i]);
     free(c->headers);

@@ -40,6 +40,19 @@ long wpd_cloud_read(wpd_cloud *c, wpd_batch *b, int *file, wpd_error *err);
  * for reading in parallel. Returns NULL with err set. */
 wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err);
 
+/* From now on c (and every copy wpd_cloud_reopen makes of it, which must
+ * be closed before c) keeps the records of its compressed files (LAZ with
+ * a chunk table) as they are first decoded, in a record cache under base
+ * (io/record_cache.h: a private directory, removed when c is closed and on
+ * every exit path), and later reads take them from there instead of
+ * decoding again: for runs that read their inputs several times. Files
+ * that are read, not decoded, get no cache. Returns 0, or -1 with err set
+ * (WPD_E_IO naming base, WPD_E_MEMORY). */
+int wpd_cloud_cache_records(wpd_cloud *c, const char *base, wpd_error *err);
+
+/* Records read back from c's caches so far, over all its copies. */
+uint64_t wpd_cloud_cache_hits(const wpd_cloud *c);
+
 /* 1 when every file's records can be positioned (wpd_cloud_seek_stretch
  * works anywhere), else 0 (ASCII PLY, PLY vertices with lists). */
 int wpd_cloud_can_seek(const wpd_cloud *c);

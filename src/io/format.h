@@ -19,6 +19,9 @@ typedef struct wpd_reader_ops {
     /* NULL when reading positions only saves nothing. Same contract as
      * wpd_reader_positions_only. */
     int (*positions_only)(wpd_reader *r, int on);
+    /* NULL when records cost nothing to decode. Same contract as
+     * wpd_reader_new_cache. */
+    int (*new_cache)(wpd_reader *r, const char *base, wpd_record_cache **out, wpd_error *err);
 } wpd_reader_ops;
 
 struct wpd_reader {
@@ -29,6 +32,7 @@ struct wpd_reader {
     uint64_t end;           /* reads stop before this record (the point count
                                unless wpd_reader_seek_range bounded them) */
     void *impl;             /* format state */
+    wpd_record_cache *cache; /* decoded records kept for later passes, or NULL */
 };
 
 /* Parse the header from r->fd (positioned at 0; r->hdr.path and

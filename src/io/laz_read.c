@@ -18,6 +18,7 @@
 #include "io/laz.h"
 #include "io/laz_items.h"
 #include "io/laz_layered.h"
+#include "io/record_cache.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -44,7 +45,13 @@ typedef struct laz_reader {
     uint64_t chunk;             /* chunk of the next point */
     uint64_t chunk_left;        /* points left in it; 0: the next point opens a chunk */
     uint64_t skip_to;           /* after a seek: points before this are decoded unseen */
+    uint64_t marked;            /* with a cache: chunks before this that the decoder
+                                   closed are marked complete (from a position on) */
+    uint8_t *skipped;           /* with a cache: points decoded unseen, for the cache */
 } laz_reader;
+
+/* Skipped points decoded between two writes to the cache. */
+#define LAZ_SKIP_RECORDS 1024u
 
 /* ---- chunk table ---- */
 
@@ -253,42 +260,9 @@ static int decode_points(wpd_reader *r, laz_reader *z, uint8_t *rec, size_t n, w
     return 0;
 }
 
-static long laz_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
+/* Index of the chunk holding point index (tabled chunks). */
+static uint64_t chunk_holding(const laz_reader *z, uint64_t index)
 {
-    laz_reader *z = r->impl;
-    const uint32_t len = z->record_length;
-    size_t kept = 0;
-    b->n = 0;
-    if (!b->cap)
-        return wpd_fail(err, WPD_E_USAGE, "%s: read into a batch without room", r->hdr.path);
-    while (z->next < z->skip_to)
-        if (next_point(r, z, z->scratch, err))
-            return -1;
-    /* Loop until something is kept, so that 0 means only "end of points". */
-    while (kept == 0 && z->next < r->end) {
-        uint64_t left = r->end - z->next;
-        size_t want = b->cap < left ? b->cap : (size_t)left;
-        uint8_t *dst = b->records;
-        if (decode_points(r, z, dst, want, err))
-            return -1;
-        kept = las_decode_xyz(z->scale, z->offset, len, dst, want, b->xyz);
-        r->dropped += want - kept;
-    }
-    b->n = kept;
-    return (long)kept;
-}
-
-/* Positions at the chunk holding index; the points before index in it are
- * decoded (and dropped) by the next read. */
-static int laz_seek(wpd_reader *r, uint64_t index, wpd_error *err)
-{
-    (void)err;
-    laz_reader *z = r->impl;
-    if (index >= r->hdr.point_count) { /* nothing to decode */
-        z->next = z->skip_to = index;
-        z->chunk_left = 0;
-        return 0;
-    }
     uint64_t lo = 0, hi = z->nchunks; /* last chunk whose first point <= index */
     while (hi - lo > 1) {
         uint64_t mid = lo + (hi - lo) / 2;
@@ -297,10 +271,115 @@ static int laz_seek(wpd_reader *r, uint64_t index, wpd_error *err)
         else
             hi = mid;
     }
-    z->chunk = lo;
+    return lo;
+}
+
+/* The decoder goes to the start of index's chunk; the points before index
+ * in it are decoded unseen by the next read that decodes. */
+static void position(wpd_reader *r, laz_reader *z, uint64_t index)
+{
+    if (index >= r->hdr.point_count) { /* nothing to decode */
+        z->next = z->skip_to = index;
+        z->chunk_left = 0;
+        return;
+    }
+    z->chunk = chunk_holding(z, index);
     z->chunk_left = 0;
-    z->next = z->first[lo];
+    z->next = z->first[z->chunk];
     z->skip_to = index;
+    z->marked = z->chunk;
+}
+
+/* n records decoded from index on go to the cache; the chunks the decoder
+ * closed since the last call are then complete (it decodes a chunk from
+ * its first point, and every point it decodes is written). */
+static int keep_decoded(wpd_reader *r, laz_reader *z, uint64_t index, const uint8_t *rec,
+                        size_t n, wpd_error *err)
+{
+    if (wpd_record_cache_write(r->cache, index, rec, n, err))
+        return -1;
+    for (; z->marked < z->chunk; z->marked++)
+        wpd_record_cache_complete(r->cache, z->marked);
+    return 0;
+}
+
+/* Decodes the points before z->skip_to unseen (into the cache, if any). */
+static int skip_points(wpd_reader *r, laz_reader *z, wpd_error *err)
+{
+    while (z->next < z->skip_to) {
+        if (!r->cache) {
+            if (next_point(r, z, z->scratch, err))
+                return -1;
+            continue;
+        }
+        uint64_t from = z->next, left = z->skip_to - from;
+        size_t n = left < LAZ_SKIP_RECORDS ? (size_t)left : LAZ_SKIP_RECORDS;
+        if (!z->skipped && !(z->skipped = malloc((size_t)LAZ_SKIP_RECORDS * z->record_length)))
+            return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", r->hdr.path);
+        if (decode_points(r, z, z->skipped, n, err) ||
+            keep_decoded(r, z, from, z->skipped, n, err))
+            return -1;
+    }
+    return 0;
+}
+
+/* Records from the cache where it holds them: the longest prefix of the n
+ * from index on that lies in complete chunks. Returns how many were read
+ * (0: none held), or -1 with err set. */
+static long read_cached(wpd_reader *r, laz_reader *z, uint64_t index, size_t n, uint8_t *dst,
+                        wpd_error *err)
+{
+    if (!r->cache || !wpd_record_cache_covers(r->cache, index, 1))
+        return 0;
+    uint64_t k = chunk_holding(z, index);
+    while (k < z->nchunks && z->first[k + 1] < index + n &&
+           wpd_record_cache_covers(r->cache, z->first[k + 1], 1))
+        k++;
+    uint64_t end = z->first[k + 1] < index + n ? z->first[k + 1] : index + n;
+    if (wpd_record_cache_read(r->cache, index, dst, (size_t)(end - index), err))
+        return -1;
+    position(r, z, end);
+    return (long)(end - index);
+}
+
+static long laz_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
+{
+    laz_reader *z = r->impl;
+    const uint32_t len = z->record_length;
+    size_t kept = 0;
+    b->n = 0;
+    if (!b->cap)
+        return wpd_fail(err, WPD_E_USAGE, "%s: read into a batch without room", r->hdr.path);
+    /* Loop until something is kept, so that 0 means only "end of points". */
+    for (;;) {
+        uint64_t at = z->next > z->skip_to ? z->next : z->skip_to;
+        if (kept || at >= r->end)
+            break;
+        uint64_t left = r->end - at;
+        size_t want = b->cap < left ? b->cap : (size_t)left;
+        uint8_t *dst = b->records;
+        long got = read_cached(r, z, at, want, dst, err);
+        if (got < 0)
+            return -1;
+        if (got == 0) {
+            if (skip_points(r, z, err) || decode_points(r, z, dst, want, err) ||
+                (r->cache && keep_decoded(r, z, at, dst, want, err)))
+                return -1;
+            got = (long)want;
+        }
+        kept = las_decode_xyz(z->scale, z->offset, len, dst, (size_t)got, b->xyz);
+        r->dropped += (size_t)got - kept;
+    }
+    b->n = kept;
+    return (long)kept;
+}
+
+/* Positions at the chunk holding index; the points before index in it are
+ * decoded (and dropped) by the next read, unless the cache holds them. */
+static int laz_seek(wpd_reader *r, uint64_t index, wpd_error *err)
+{
+    (void)err;
+    position(r, r->impl, index);
     return 0;
 }
 
@@ -313,6 +392,7 @@ static void laz_close(wpd_reader *r)
     laz_items_free(z->items);
     laz_layered_free(z->layered);
     free(z->scratch);
+    free(z->skipped);
     free(z->start);
     free(z->first);
     free(z);
@@ -329,9 +409,20 @@ static int laz_positions_only(wpd_reader *r, int on)
     return 1;
 }
 
-static const wpd_reader_ops laz_ops_seek = {laz_read, laz_seek, laz_close, laz_positions_only};
+/* A cache of the decoded records, for files that can be positioned. */
+static int laz_new_cache(wpd_reader *r, const char *base, wpd_record_cache **out,
+                         wpd_error *err)
+{
+    laz_reader *z = r->impl;
+    *out = wpd_record_cache_create(base, r->hdr.path, z->record_length, z->first, z->nchunks,
+                                   err);
+    return *out ? 0 : -1;
+}
+
+static const wpd_reader_ops laz_ops_seek = {laz_read, laz_seek, laz_close, laz_positions_only,
+                                            laz_new_cache};
 static const wpd_reader_ops laz_ops_sequential = {laz_read, NULL, laz_close,
-                                                  laz_positions_only};
+                                                  laz_positions_only, NULL};
 
 /* ---- opening ---- */
 

@@ -53,6 +53,25 @@ int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error
  * anyway. */
 int wpd_reader_positions_only(wpd_reader *r, int on);
 
+/* The records of a compressed file, decoded once for several passes
+ * (record_cache.h). */
+typedef struct wpd_record_cache wpd_record_cache;
+
+/* Sets *out to a new, empty record cache for r's file under base (the
+ * caller frees it after every reader using it is closed), or to NULL when
+ * caching saves nothing: formats whose records are read, not decoded (LAS,
+ * PLY), and LAZ files that cannot be positioned (no usable chunk table).
+ * Returns 0, or -1 with err set (WPD_E_IO naming base, WPD_E_MEMORY). */
+int wpd_reader_new_cache(wpd_reader *r, const char *base, wpd_record_cache **out,
+                         wpd_error *err);
+
+/* From now on r keeps what it decodes in c (made by wpd_reader_new_cache
+ * for the same file; NULL: no cache) and reads records back from it where
+ * c holds them, instead of decoding. Readers of one file on several
+ * threads may share c. Positions-only reading is then off: the records
+ * must be whole. Call it right after opening. */
+void wpd_reader_use_cache(wpd_reader *r, wpd_record_cache *c);
+
 /* Number of records dropped so far for non-finite coordinates. */
 uint64_t wpd_reader_dropped(const wpd_reader *r);
 

@@ -101,13 +101,16 @@ static uint64_t halo_points(const prefix *p, const wpd_tile *t, double halo_cell
 }
 
 /* Index of the tile to split next: the most points read (own and halo)
- * among splittable tiles that must be split, -1 when none. */
-static int next_to_split(const uint64_t *load, int n,
+ * among splittable tiles that must be split, -1 when none. A tile whose
+ * own points are half the limit is not split for its halo: halving it
+ * would hardly shrink the halo (tiny tiles under a tight budget). */
+static int next_to_split(const wpd_tile *tiles, const uint64_t *load, int n,
                          const uint8_t *stuck, uint64_t max_points, int min_tiles)
 {
     int best = -1;
     for (int i = 0; i < n; i++)
-        if (!stuck[i] && (load[i] > max_points || n < min_tiles) &&
+        if (!stuck[i] &&
+            ((load[i] > max_points && 2 * tiles[i].points > max_points) || n < min_tiles) &&
             (best < 0 || load[i] > load[best]))
             best = i;
     return best;
@@ -125,7 +128,7 @@ static int cut_tiles(const wpd_scan *s, const prefix *p, uint64_t max_points, in
         goto fail;
     memcpy(tiles[0].hi, s->dim, sizeof tiles[0].hi);
     tiles[0].points = load[0] = s->count;
-    for (int i; (i = next_to_split(load, n, stuck, max_points, min_tiles)) >= 0;) {
+    for (int i; (i = next_to_split(tiles, load, n, stuck, max_points, min_tiles)) >= 0;) {
         if (n == cap) {
             cap *= 2;
             wpd_tile *t = realloc(tiles, (size_t)cap * sizeof *t);

@@ -4,6 +4,7 @@ layered compressor, COPC included): `wpd info`, `wpd convert` and
 ../shared/data/laz; COPC's own VLR and EVLR are dropped from every output;
 damaged LAZ files fail with one line and exit 2."""
 import json
+import os
 import struct
 
 from harness import data, wpd
@@ -50,15 +51,22 @@ def test_laz_info_shows_compressor_chunks_items():
 
 def test_laz_resample_same_bytes_as_las_twin():
     """In memory and through the tiled engine (which reads point ranges in
-    parallel, seeking through the chunk table), on 1 and 2 threads."""
+    parallel, seeking through the chunk table), on 1 and 2 threads. The
+    scan decodes every chunk once; the tile and records passes read the
+    records back from the cache (all 277 573 twice), and the cache is gone
+    when the run ends."""
     laz, las = data("laz", "lastools_fusa.laz"), data("laz", "lastools_fusa.las")
+    os.makedirs("tmp", exist_ok=True)
     for extra in ((), ("--min-tiles", 4)):
         for threads in (1, 2):
-            opts = ("-n", 20000, "--no-smooth", "--threads", threads, *extra)
-            wpd("resample", laz, "-o", "from_laz.las", *opts, "--force")
+            opts = ("-n", 20000, "--no-smooth", "--threads", threads, "--tmpdir", "tmp", *extra)
+            wpd("resample", laz, "-o", "from_laz.las", *opts, "--force", "--report", "r.json")
             wpd("resample", las, "-o", "from_las.las", *opts, "--force")
             with open("from_laz.las", "rb") as a, open("from_las.las", "rb") as b:
                 assert a.read() == b.read(), (extra, threads)
+            with open("r.json") as f:
+                assert json.load(f)["records_cached"] == 2 * 277573, (extra, threads)
+            assert os.listdir("tmp") == [], os.listdir("tmp")
 
 
 def test_laz_info_layered():

@@ -549,17 +549,23 @@ TEST(wpd_tiles_give_the_one_block_samples)
     wpd_params p;
     wpd_params_default(&p);
     p.smooth = 0;
-    for (int sharp = 0; sharp < 2; sharp++) {
+    /* 800: one pass; 2500: a first pass above 1.15 n, redone at a larger
+     * radius (refine.h) */
+    const size_t targets[2] = {800, 2500};
+    int redone = 0;
+    for (int run_no = 0; run_no < 4; run_no++) {
+        int sharp = run_no & 1;
+        size_t n = targets[run_no >> 1];
         p.sharp = sharp;
         wpd_resample_result one, four;
-        CHECK(run(&s, 800, &p, &one) == 0 && one.in_memory && one.count == 800);
-        CHECK(run_tiled(&s, 800, &p, 4, &four) == 0 && !four.in_memory && four.tiles >= 4);
-        CHECK(four.count == 800);
+        CHECK(run(&s, n, &p, &one) == 0 && one.in_memory && one.count == n);
+        CHECK(run_tiled(&s, n, &p, 4, &four) == 0 && !four.in_memory && four.tiles >= 4);
+        CHECK(four.count == n);
+        redone |= one.first_pass_count > WPD_REFINE_OVERSHOOT * (double)n && one.passes >= 2;
         flat_samples f1, f4;
         CHECK(flatten(&one, &f1) == 0 && flatten(&four, &f4) == 0);
         CHECK(wpd_runs_in_files(four.samples) && !wpd_runs_in_files(one.samples));
-        CHECK_MSG(memcmp(f1.gid, f4.gid, 800 * 8) == 0 &&
-                      memcmp(f1.xyz, f4.xyz, 3 * 800 * 8) == 0,
+        CHECK_MSG(memcmp(f1.gid, f4.gid, n * 8) == 0 && memcmp(f1.xyz, f4.xyz, 3 * n * 8) == 0,
                   "sharp %d: tiles differ from one block (first pass %zu / %zu, before the "
                   "exact count %zu / %zu, radius %.9g / %.9g)", sharp, one.first_pass_count,
                   four.first_pass_count, one.poisson_count, four.poisson_count, one.radius,
@@ -576,6 +582,7 @@ TEST(wpd_tiles_give_the_one_block_samples)
         wpd_resample_result_free(&one);
         wpd_resample_result_free(&four);
     }
+    CHECK_MSG(redone, "no first pass was redone: the test misses that path");
     scan_free(&s);
 }
 

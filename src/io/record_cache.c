@@ -1,0 +1,130 @@
+/* record_cache.c - the decoded-record cache of record_cache.h. */
+#include "io/record_cache.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "common/fullio.h"
+#include "common/tmpdir.h"
+
+struct wpd_record_cache {
+    char dir[PATH_MAX];
+    char file[PATH_MAX + 16];
+    int fd;
+    uint32_t record_length;
+    uint64_t nchunks;
+    uint64_t *first;              /* [nchunks + 1] */
+    _Atomic uint8_t *complete;    /* [nchunks] */
+    _Atomic uint64_t hits;
+};
+
+wpd_record_cache *wpd_record_cache_create(const char *base, const char *path,
+                                          uint32_t record_length, const uint64_t *first,
+                                          uint64_t nchunks, wpd_error *err)
+{
+    wpd_record_cache *c = calloc(1, sizeof *c);
+    if (c) {
+        c->fd = -1;
+        c->first = malloc((nchunks + 1) * sizeof *c->first);
+        c->complete = calloc(nchunks ? nchunks : 1, sizeof *c->complete);
+    }
+    if (!c || !c->first || !c->complete) {
+        wpd_record_cache_free(c);
+        wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for its record cache", path);
+        return NULL;
+    }
+    memcpy(c->first, first, (nchunks + 1) * sizeof *c->first);
+    c->nchunks = nchunks;
+    c->record_length = record_length;
+    if (wpd_tmpdir_create(base, "wpd-cache", c->dir, sizeof c->dir, err)) {
+        c->dir[0] = '\0';
+        wpd_record_cache_free(c);
+        return NULL;
+    }
+    snprintf(c->file, sizeof c->file, "%s/records", c->dir);
+    c->fd = open(c->file, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (c->fd < 0) {
+        wpd_fail_errno(err, "%s: cannot create", c->file);
+        wpd_record_cache_free(c);
+        return NULL;
+    }
+    return c;
+}
+
+int wpd_record_cache_write(wpd_record_cache *c, uint64_t index, const uint8_t *rec, size_t n,
+                           wpd_error *err)
+{
+    if (wpd_pwrite_full(c->fd, rec, n * c->record_length, index * c->record_length))
+        return wpd_fail_errno(err, "%s: cannot write", c->file);
+    return 0;
+}
+
+void wpd_record_cache_complete(wpd_record_cache *c, uint64_t chunk)
+{
+    if (chunk < c->nchunks)
+        atomic_store_explicit(&c->complete[chunk], 1, memory_order_release);
+}
+
+/* The chunk holding record index (first[chunk] <= index < first[chunk + 1]). */
+static uint64_t chunk_of(const wpd_record_cache *c, uint64_t index)
+{
+    uint64_t lo = 0, hi = c->nchunks;
+    while (hi - lo > 1) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (c->first[mid] <= index)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+int wpd_record_cache_covers(const wpd_record_cache *c, uint64_t index, size_t n)
+{
+    if (n == 0)
+        return 1;
+    if (index + n > c->first[c->nchunks])
+        return 0;
+    for (uint64_t k = chunk_of(c, index); k < c->nchunks && c->first[k] < index + n; k++)
+        if (!atomic_load_explicit(&c->complete[k], memory_order_acquire))
+            return 0;
+    return 1;
+}
+
+int wpd_record_cache_read(wpd_record_cache *c, uint64_t index, uint8_t *rec, size_t n,
+                          wpd_error *err)
+{
+    size_t bytes = n * c->record_length;
+    ssize_t got = wpd_pread_full(c->fd, rec, bytes, index * c->record_length);
+    if (got < 0)
+        return wpd_fail_errno(err, "%s: cannot read", c->file);
+    if ((size_t)got != bytes)
+        return wpd_fail(err, WPD_E_IO, "%s: %zd of %zu bytes (the file was cut short)", c->file,
+                        got, bytes);
+    atomic_fetch_add_explicit(&c->hits, n, memory_order_relaxed);
+    return 0;
+}
+
+uint64_t wpd_record_cache_hits(const wpd_record_cache *c)
+{
+    return atomic_load_explicit(&c->hits, memory_order_relaxed);
+}
+
+void wpd_record_cache_free(wpd_record_cache *c)
+{
+    if (!c)
+        return;
+    if (c->fd >= 0)
+        close(c->fd);
+    if (c->dir[0])
+        wpd_tmpdir_remove(c->dir);
+    free(c->first);
+    free((void *)c->complete);
+    free(c);
+}
