@@ -32,9 +32,10 @@ typedef struct pass_state {
     int parallel;             /* units read in parallel, else serial reading */
     uint64_t end;             /* records [0, end) */
     /* parallel reading */
-    uint64_t unit;            /* records per unit */
+    uint64_t unit;            /* records per unit: a batch's capacity */
     int nfiles;
     uint64_t *file_first;     /* [nfiles] first record of each file */
+    uint64_t *file_unit;      /* [nfiles] records per unit of each file */
     uint64_t *unit_first;     /* [nfiles + 1] first unit of each file; the last: all units */
     _Atomic uint64_t next_unit;
     /* serial reading, under mu */
@@ -100,8 +101,9 @@ static void unit_range(const pass_state *s, uint64_t u, uint64_t *first, uint64_
         else
             hi = mid - 1;
     }
-    *first = s->file_first[lo] + (u - s->unit_first[lo]) * s->unit;
-    *count = s->end - *first < s->unit ? s->end - *first : s->unit;
+    uint64_t unit = s->file_unit[lo];
+    *first = s->file_first[lo] + (u - s->unit_first[lo]) * unit;
+    *count = s->end - *first < unit ? s->end - *first : unit;
 }
 
 /* Reads unit u with l's cloud and hands its batches on. A unit normally
@@ -207,22 +209,39 @@ static void run_serial(pass_state *s, int l)
     }
 }
 
+/* Records per unit of file f: a batch's, or for LAZ in chunks of a fixed
+ * size, whole chunks (as many as a batch holds, or one larger than a
+ * batch): a lane then decodes whole chunks, never the head of a chunk that
+ * another lane decodes too (with units of a batch and LASzip's chunks of
+ * 50 000 points, that was 38 % more decoding). */
+static uint64_t file_unit(const wpd_cloud *c, int f, uint64_t cap)
+{
+    const wpd_header *h = wpd_cloud_header(c, f);
+    const wpd_laz_info *z = &h->las.laz;
+    if (h->format != WPD_FMT_LAS || !z->compressed || z->compressor < 2 || !z->chunks ||
+        z->chunk_size == 0 || z->chunk_size == UINT32_MAX || z->chunk_size > WPD_PASS_MAX_UNIT)
+        return cap;
+    return z->chunk_size > cap ? z->chunk_size : cap / z->chunk_size * z->chunk_size;
+}
+
 /* Units of each file within records [0, end). */
 static int plan_units(pass_state *s)
 {
     const wpd_cloud *c = s->p->cloud;
     s->nfiles = wpd_cloud_nfiles(c);
     s->file_first = malloc((size_t)s->nfiles * sizeof *s->file_first);
+    s->file_unit = malloc((size_t)s->nfiles * sizeof *s->file_unit);
     s->unit_first = malloc(((size_t)s->nfiles + 1) * sizeof *s->unit_first);
-    if (!s->file_first || !s->unit_first)
+    if (!s->file_first || !s->file_unit || !s->unit_first)
         return -1;
     uint64_t record = 0, units = 0;
     for (int f = 0; f < s->nfiles; f++) {
         uint64_t n = wpd_cloud_header(c, f)->point_count;
         uint64_t in = record >= s->end ? 0 : s->end - record < n ? s->end - record : n;
         s->file_first[f] = record;
+        s->file_unit[f] = file_unit(c, f, s->unit);
         s->unit_first[f] = units;
-        units += (in + s->unit - 1) / s->unit;
+        units += (in + s->file_unit[f] - 1) / s->file_unit[f];
         record += n;
     }
     s->unit_first[s->nfiles] = units;
@@ -278,6 +297,7 @@ static void teardown(pass_state *s)
     free(s->lanes);
     free(s->file_first);
     free(s->unit_first);
+    free(s->file_unit);
 }
 
 int wpd_pass_run(const wpd_pass *p, wpd_error *err)

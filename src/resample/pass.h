@@ -53,6 +53,7 @@
 #include "io/cloud.h"
 
 #define WPD_PASS_GID_UNKNOWN UINT64_MAX
+#define WPD_PASS_MAX_UNIT (1u << 20) /* records of a unit at most (LAZ chunks) */
 
 typedef struct wpd_pass_batch {
     const wpd_batch *batch;   /* the finite points read (owned by the pass) */
