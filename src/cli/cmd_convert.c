@@ -4,8 +4,11 @@
 #include "io/cloud.h"
 #include "io/layout.h"
 #include "io/writer.h"
+#include "resample/budget.h"
+#include "resample/pass.h"
 
 #include <getopt.h>
+#include <omp.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -21,26 +24,33 @@ static const char *usage_text =
     "  --ascii   write ascii PLY (default: binary little-endian)\n"
     "  --force   replace OUT if it exists\n";
 
+/* The writer's side of the pass: batches in reading order. */
+typedef struct convert_stream {
+    const wpd_header *in, *out;
+    const wpd_layout_map *map;
+    wpd_writer *w;
+    wpd_batch dst;
+} convert_stream;
+
+static int write_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
+{
+    convert_stream *cs = arg;
+    wpd_layout_apply(cs->map, &cs->in->schema, &cs->out->schema, pb->batch, &cs->dst);
+    return wpd_writer_write(cs->w, &cs->dst, err);
+}
+
+/* Every point to the writer: read (and, for LAZ, decoded) on every thread
+ * an ordered pass has (resample/pass.h), written in order on one. */
 static int stream_points(wpd_cloud *cloud, const wpd_header *in, const wpd_header *out,
                          const wpd_layout_map *map, wpd_writer *w, wpd_error *err)
 {
-    wpd_batch src, dst;
-    int rc = 0;
-    if (wpd_batch_init(&src, 65536, in->schema.record_size) ||
-        wpd_batch_init(&dst, 65536, out->schema.record_size)) {
-        wpd_batch_free(&src);
+    convert_stream cs = {in, out, map, w, {0}};
+    if (wpd_batch_init(&cs.dst, WPD_BATCH_POINTS, out->schema.record_size))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    }
-    long got;
-    while ((got = wpd_cloud_read(cloud, &src, NULL, err)) > 0) {
-        wpd_layout_apply(map, &in->schema, &out->schema, &src, &dst);
-        if ((rc = wpd_writer_write(w, &dst, err)))
-            break;
-    }
-    if (got < 0)
-        rc = -1;
-    wpd_batch_free(&src);
-    wpd_batch_free(&dst);
+    wpd_pass pass = {.cloud = cloud, .threads = omp_get_max_threads(), .commit = write_commit,
+                     .arg = &cs};
+    int rc = wpd_cloud_rewind(cloud, err) ? -1 : wpd_pass_run(&pass, err);
+    wpd_batch_free(&cs.dst);
     return rc;
 }
 

@@ -7,9 +7,12 @@
 #include "io/las.h"
 #include "io/laz.h"
 #include "io/reader.h"
+#include "resample/pass.h"
 
 #include <getopt.h>
+#include <omp.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static const char *usage_text =
@@ -29,23 +32,57 @@ typedef struct info_options {
     int json, header_only;
 } info_options;
 
-/* Finite points, their bounds and (LAS) return numbers, from one
- * streaming pass. */
-static int scan_points(wpd_reader *r, wpd_bounds *b, uint64_t by_return[16], wpd_error *err)
+/* One lane's tally of the points it read. */
+typedef struct info_lane {
+    wpd_bounds box;
+    uint64_t by_return[16];
+} info_lane;
+
+typedef struct info_scan {
+    const wpd_header *h;
+    info_lane *lanes;
+} info_scan;
+
+static int tally_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
-    const wpd_header *h = wpd_reader_header(r);
-    wpd_batch batch;
-    if (wpd_batch_init(&batch, 65536, h->schema.record_size))
+    (void)err;
+    info_scan *sc = arg;
+    info_lane *l = &sc->lanes[pb->lane];
+    wpd_bounds_add(&l->box, pb->batch->xyz, pb->batch->n);
+    if (sc->h->format == WPD_FMT_LAS)
+        wpd_las_tally_returns(sc->h, pb->batch->records, pb->batch->n, l->by_return);
+    return 0;
+}
+
+/* Finite points, their bounds and (LAS) return numbers, from one pass over
+ * path read (and, for LAZ, decoded) on every thread (resample/pass.h);
+ * *dropped: the points with non-finite coordinates. */
+static int scan_points(const char *path, const wpd_header *h, wpd_bounds *b,
+                       uint64_t by_return[16], uint64_t *dropped, wpd_error *err)
+{
+    wpd_cloud *cloud = wpd_cloud_open(&path, 1, err);
+    if (!cloud)
+        return -1;
+    int threads = omp_get_max_threads();
+    info_scan sc = {h, calloc((size_t)threads, sizeof *sc.lanes)};
+    if (!sc.lanes) {
+        wpd_cloud_close(cloud);
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    wpd_bounds_reset(b);
-    long got;
-    while ((got = wpd_reader_read(r, &batch, err)) > 0) {
-        wpd_bounds_add(b, batch.xyz, batch.n);
-        if (h->format == WPD_FMT_LAS)
-            wpd_las_tally_returns(h, batch.records, batch.n, by_return);
     }
-    wpd_batch_free(&batch);
-    return got < 0 ? -1 : 0;
+    for (int t = 0; t < threads; t++)
+        wpd_bounds_reset(&sc.lanes[t].box);
+    wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = tally_lane, .arg = &sc};
+    int rc = wpd_pass_run(&pass, err);
+    wpd_bounds_reset(b);
+    for (int t = 0; t < threads; t++) {
+        wpd_bounds_union(b, &sc.lanes[t].box);
+        for (int k = 0; k < 16; k++)
+            by_return[k] += sc.lanes[t].by_return[k];
+    }
+    *dropped = wpd_cloud_dropped(cloud);
+    free(sc.lanes);
+    wpd_cloud_close(cloud);
+    return rc;
 }
 
 static const char *ply_encoding_name(wpd_ply_encoding e)
@@ -298,7 +335,8 @@ static int info_one(const char *path, const info_options *opt, int first, wpd_er
     const wpd_header *h = wpd_reader_header(r);
     wpd_bounds b;
     uint64_t by_return[16] = {0};
-    int rc = opt->header_only ? 0 : scan_points(r, &b, by_return, err);
+    uint64_t dropped = 0;
+    int rc = opt->header_only ? 0 : scan_points(path, h, &b, by_return, &dropped, err);
     if (rc == 0) {
         const wpd_bounds *pb = opt->header_only ? NULL : &b;
         wpd_warnings w = h->warnings;
@@ -306,9 +344,9 @@ static int info_one(const char *path, const info_options *opt, int first, wpd_er
             wpd_las_check_header_against_points(h, pb, by_return, &w);
         wpd_warnings_print(stderr, "info", &w);
         if (opt->json)
-            print_json(h, pb, wpd_reader_dropped(r), &w, first);
+            print_json(h, pb, dropped, &w, first);
         else
-            print_text(h, pb, wpd_reader_dropped(r));
+            print_text(h, pb, dropped);
     }
     wpd_reader_close(r);
     return rc;

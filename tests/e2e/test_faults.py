@@ -95,10 +95,11 @@ def sha256(path):
 
 
 def leftovers(*dirs):
-    """Spill directories, temporary outputs and lock files in dirs."""
+    """Spill, run, blob and record cache directories, temporary outputs and
+    lock files in dirs."""
     return [os.path.join(d, f) for d in dirs for f in os.listdir(d)
-            if f.startswith(("wpd-spill-", "wpd-runs-")) or ".wpd-tmp-" in f
-            or f.endswith(".wpd-lock")]
+            if f.startswith(("wpd-spill-", "wpd-runs-", "wpd-blobs-", "wpd-cache-"))
+            or ".wpd-tmp-" in f or f.endswith(".wpd-lock")]
 
 
 def run(args, env=None, preexec_fn=None, timeout=120):
@@ -505,11 +506,22 @@ def timed_baseline(args):
     return time.monotonic() - t
 
 
-def random_signal_case():
+def synth_laz(n):
+    """synth(n, "las") compressed (LAZ: its runs keep a record cache)."""
+    key = ("laz", n)
+    if key not in _cache:
+        path = synth(n, "las")[:-4] + ".laz"
+        subprocess.run([WPD, "convert", synth(n, "las"), path], check=True, capture_output=True)
+        os.chmod(path, 0o444)
+        _cache[key] = path
+    return _cache[key]
+
+
+def random_signal_case(ext="las"):
     """An engine run to interrupt, a seeded random source (the seed is
     printed; WPD_FAULT_SEED repeats it) and how long the run takes
     uninterrupted."""
-    src = synth(1_000_000, "las")
+    src = synth_laz(1_000_000) if ext == "laz" else synth(1_000_000, "las")
     seed = int(os.environ.get("WPD_FAULT_SEED", random.randrange(1 << 30)))
     rng = random.Random(seed)
     c = Case(src, "out.las", 20_000, ["--min-tiles", 8])
@@ -645,7 +657,15 @@ def test_failures_in_the_records_pass_leave_no_run_file():
 
 
 def test_sigkill_at_random_moments_then_the_next_run_sweeps():
-    c, rng, base = random_signal_case()
+    sigkill_then_sweep("las")
+
+
+def test_sigkill_of_a_laz_run_then_the_next_run_sweeps_its_record_cache():
+    sigkill_then_sweep("laz")
+
+
+def sigkill_then_sweep(ext):
+    c, rng, base = random_signal_case(ext)
     swept = 0
     for k in range(4):
         delay = rng.uniform(0.05, 0.95) * base
