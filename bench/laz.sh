@@ -41,39 +41,51 @@ echo "laz encode: $(echo "scale=2; $points / ($t_laz - $t_las) / 1000000" | bc) 
      "$(echo "scale=2; $points / $t_laz / 1000000" | bc) M points/s end to end"
 echo "laz size: $laz_bytes bytes, LAS $las_bytes bytes: $(echo "scale=1; 100 * $laz_bytes / $las_bytes" | bc)% ($(echo "scale=2; $las_bytes / $laz_bytes" | bc)x smaller)"
 
-# End to end (issue 13): `wpd synth` points (point format 3) to 1 % under
-# --mem 512M on 2 threads, from the LAS file and from its LAZ copy, and one
-# parallel decode of the LAZ (laz_bench, 2 threads), medians of
-# LAZ_E2E_REPEAT runs (default 3) each, all in this run. Target: the LAZ run
-# at most the LAS run plus 1.2 decodes. LAZ_E2E_POINTS sets the size
-# (default 100000000; 0 skips it: the files take 3.4 GB and 0.75 GB).
+# End to end (issue 13): `wpd synth` points to 1 % under --mem 512M on 2
+# threads, from the LAS file and from its LAZ copy, and one parallel decode of
+# the LAZ (laz_bench, 2 threads), medians of LAZ_E2E_REPEAT runs (default 3)
+# each, interleaved, all in this run; for point format 3 (the point-wise
+# compressor) and 7 (the layered one: bench/make_format7.py carries every
+# attribute over). Target: the LAZ run at most the LAS run plus 1.2 decodes.
+# LAZ_E2E_POINTS sets the size (default 100000000; 0 skips it: the files
+# take 3.4 + 3.6 GB as LAS and 0.75 + 0.73 GB as LAZ).
 e2e=${LAZ_E2E_POINTS:-100000000}
-if [ "$e2e" != 0 ]; then
-    data=bench/out/data
-    out=bench/out/laz
-    mkdir -p "$data" "$out"
-    las=$data/city_$e2e.las laz=$data/city_$e2e.laz
-    [ -f "$las" ] || ./wpd synth -n "$e2e" --seed 1 -o "$las" >/dev/null
-    [ -f "$laz" ] || ./wpd convert "$las" "$laz" >/dev/null
-    median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
-    : >"$out/las.t"; : >"$out/laz.t"; : >"$out/decode.t"
+median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
+# e2e_case NAME LAS LAZ
+e2e_case() {
+    local name=$1 las=$2 laz=$3 out=bench/out/laz kind in
+    mkdir -p "$out"
+    : >"$out/$name.las.t"; : >"$out/$name.laz.t"; : >"$out/$name.decode.t"
     for _ in $(seq "${LAZ_E2E_REPEAT:-3}"); do
         for kind in las laz; do
             in=$las; [ $kind = laz ] && in=$laz
             cat "$in" >/dev/null
             /usr/bin/time -f "%e %M" -o "$out/$kind.time" ./wpd resample "$in" -o "$out/o.las" \
                 -n $((e2e / 100)) --mem 512M --threads 2 --force -q --tmpdir "$out" \
-                --report "$out/$kind.json"
-            echo "$(cut -d' ' -f1 "$out/$kind.time") $(cut -d' ' -f2 "$out/$kind.time")" >>"$out/$kind.t"
+                --report "$out/$name.$kind.json"
+            cat "$out/$kind.time" >>"$out/$name.$kind.t"
         done
-        build/laz_bench "$laz" 2 1 | sed 's/.*: \([0-9.]*\) s, .*/\1/' >>"$out/decode.t"
+        build/laz_bench "$laz" 2 1 | sed 's/.*: \([0-9.]*\) s, .*/\1/' >>"$out/$name.decode.t"
     done
-    t_las=$(cut -d' ' -f1 "$out/las.t" | median) t_laz=$(cut -d' ' -f1 "$out/laz.t" | median)
-    t_dec=$(median <"$out/decode.t")
-    echo "end to end, $e2e points to 1 % (--mem 512M, 2 threads), medians:" \
-         "from LAS $t_las s ($(( $(cut -d' ' -f2 "$out/las.t" | median | cut -d. -f1) / 1024 )) MB)," \
-         "from LAZ $t_laz s ($(( $(cut -d' ' -f2 "$out/laz.t" | median | cut -d. -f1) / 1024 )) MB)," \
+    local t_las t_laz t_dec
+    t_las=$(cut -d' ' -f1 "$out/$name.las.t" | median)
+    t_laz=$(cut -d' ' -f1 "$out/$name.laz.t" | median)
+    t_dec=$(median <"$out/$name.decode.t")
+    echo "end to end, $name, $e2e points to 1 % (--mem 512M, 2 threads), medians:" \
+         "from LAS $t_las s ($(( $(cut -d' ' -f2 "$out/$name.las.t" | median | cut -d. -f1) / 1024 )) MB)," \
+         "from LAZ $t_laz s ($(( $(cut -d' ' -f2 "$out/$name.laz.t" | median | cut -d. -f1) / 1024 )) MB)," \
          "one parallel decode $t_dec s"
-    echo "LAZ - LAS = $(echo "$t_laz - $t_las" | bc) s = $(echo "scale=2; ($t_laz - $t_las) / $t_dec" | bc)" \
+    echo "  LAZ - LAS = $(echo "$t_laz - $t_las" | bc) s = $(echo "scale=2; ($t_laz - $t_las) / $t_dec" | bc)" \
          "decodes (target <= 1.2)"
+}
+if [ "$e2e" != 0 ]; then
+    data=bench/out/data
+    mkdir -p "$data"
+    las=$data/city_$e2e.las laz=$data/city_$e2e.laz las7=$data/city7_$e2e.las laz7=$data/city7_$e2e.laz
+    [ -f "$las" ] || ./wpd synth -n "$e2e" --seed 1 -o "$las" >/dev/null
+    [ -f "$laz" ] || ./wpd convert "$las" "$laz" >/dev/null
+    [ -f "$las7" ] || /usr/bin/python3 bench/make_format7.py "$las" "$las7"
+    [ -f "$laz7" ] || ./wpd convert "$las7" "$laz7" >/dev/null
+    e2e_case format3 "$las" "$laz"
+    e2e_case format7 "$las7" "$laz7"
 fi
