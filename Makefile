@@ -106,7 +106,7 @@ FUZZ_LIB_SRC    := src/io/reader.c src/io/las_read.c src/io/las_schema.c src/io/
                    src/io/ply_header.c src/io/laz_vlr.c src/io/laz_read.c src/io/laz_items.c src/io/laz_layered.c src/io/laz_point14.c src/io/laz_items14.c \
                    src/io/laz_encoder.c src/io/laz_items_enc.c src/io/laz_point14_enc.c \
                    src/io/laz_coder.c src/io/ply_stream.c src/io/decimal.c src/io/schema.c src/io/batch.c \
-                   src/io/record_cache.c src/common/tmpdir.c \
+                   src/io/record_cache.c \
                    src/common/error.c src/common/fullio.c src/common/warnings.c
 FUZZ_LIB_OBJ    := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/%.o)
 # The spill codec is pure (no I/O, no threads): its two files and errors.

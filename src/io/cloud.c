@@ -2,7 +2,9 @@
 
 #include "io/reader.h"
 #include "io/record_cache.h"
+#include "common/tmpdir.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +22,7 @@ struct wpd_cloud {
     uint64_t filtered;        /* finite points the filter skipped */
     wpd_record_cache **cache; /* [nfiles] decoded records kept, or NULL */
     int owns_cache;           /* 0 in a reopened copy: the caches are shared */
+    char cache_dir[PATH_MAX]; /* their private directory (owner), or "" */
 };
 
 /* Two dimensions agree if everything but a coordinate's scale/offset does. */
@@ -240,14 +243,22 @@ wpd_cloud *wpd_cloud_reopen(const wpd_cloud *c, wpd_error *err)
 
 int wpd_cloud_cache_records(wpd_cloud *c, const char *base, wpd_error *err)
 {
-    if (c->cache)
+    int compressed = 0;
+    for (int i = 0; i < c->nfiles; i++)
+        compressed |= c->headers[i].format == WPD_FMT_LAS && c->headers[i].las.laz.compressed;
+    if (c->cache || !compressed)
         return 0;
-    if (!(c->cache = calloc((size_t)(c->nfiles ? c->nfiles : 1), sizeof *c->cache)))
+    if (!(c->cache = calloc((size_t)c->nfiles, sizeof *c->cache)))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     c->owns_cache = 1;
+    /* one directory for every input: a run may read thousands */
+    if (wpd_tmpdir_create(base, "wpd-cache", c->cache_dir, sizeof c->cache_dir, err)) {
+        c->cache_dir[0] = '\0';
+        return -1;
+    }
     for (int i = 0; i < c->nfiles; i++) {
         wpd_reader *r = wpd_reader_open(c->headers[i].path, err);
-        int rc = r ? wpd_reader_new_cache(r, base, &c->cache[i], err) : -1;
+        int rc = r ? wpd_reader_new_cache(r, c->cache_dir, i, &c->cache[i], err) : -1;
         wpd_reader_close(r);
         if (rc)
             return -1;
@@ -377,10 +388,13 @@ void wpd_cloud_close(wpd_cloud *c)
     if (!c)
         return;
     close_current(c);
-    for (int i = 0; c->owns_cache && i < c->nfiles; i++)
+    for (int i = 0; c->owns_cache && c->cache && i < c->nfiles; i++)
         wpd_record_cache_free(c->cache[i]);
-    if (c->owns_cache)
+    if (c->owns_cache) {
         free(c->cache);
+        if (c->cache_dir[0])
+            wpd_tmpdir_remove(c->cache_dir);
+    }
     for (int i = 0; i < c->nfiles; i++)
         wpd_header_free(&c->headers[i]);
     free(c->headers);

@@ -21,7 +21,8 @@ typedef struct wpd_reader_ops {
     int (*positions_only)(wpd_reader *r, int on);
     /* NULL when records cost nothing to decode. Same contract as
      * wpd_reader_new_cache. */
-    int (*new_cache)(wpd_reader *r, const char *base, wpd_record_cache **out, wpd_error *err);
+    int (*new_cache)(wpd_reader *r, const char *dir, int id, wpd_record_cache **out,
+                     wpd_error *err);
 } wpd_reader_ops;
 
 struct wpd_reader {

@@ -410,12 +410,12 @@ static int laz_positions_only(wpd_reader *r, int on)
 }
 
 /* A cache of the decoded records, for files that can be positioned. */
-static int laz_new_cache(wpd_reader *r, const char *base, wpd_record_cache **out,
+static int laz_new_cache(wpd_reader *r, const char *dir, int id, wpd_record_cache **out,
                          wpd_error *err)
 {
     laz_reader *z = r->impl;
-    *out = wpd_record_cache_create(base, r->hdr.path, z->record_length, z->first, z->nchunks,
-                                   err);
+    *out = wpd_record_cache_create(dir, id, r->hdr.path, z->record_length, z->first,
+                                   z->nchunks, err);
     return *out ? 0 : -1;
 }
 

@@ -100,11 +100,11 @@ int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error
     return 0;
 }
 
-int wpd_reader_new_cache(wpd_reader *r, const char *base, wpd_record_cache **out,
+int wpd_reader_new_cache(wpd_reader *r, const char *dir, int id, wpd_record_cache **out,
                          wpd_error *err)
 {
     *out = NULL;
-    return r->ops->new_cache ? r->ops->new_cache(r, base, out, err) : 0;
+    return r->ops->new_cache ? r->ops->new_cache(r, dir, id, out, err) : 0;
 }
 
 void wpd_reader_use_cache(wpd_reader *r, wpd_record_cache *c)

@@ -57,12 +57,13 @@ int wpd_reader_positions_only(wpd_reader *r, int on);
  * (record_cache.h). */
 typedef struct wpd_record_cache wpd_record_cache;
 
-/* Sets *out to a new, empty record cache for r's file under base (the
- * caller frees it after every reader using it is closed), or to NULL when
- * caching saves nothing: formats whose records are read, not decoded (LAS,
- * PLY), and LAZ files that cannot be positioned (no usable chunk table).
- * Returns 0, or -1 with err set (WPD_E_IO naming base, WPD_E_MEMORY). */
-int wpd_reader_new_cache(wpd_reader *r, const char *base, wpd_record_cache **out,
+/* Sets *out to a new, empty record cache for r's file, the file
+ * "<dir>/records-<id>" (the caller frees it after every reader using it is
+ * closed), or to NULL when caching saves nothing: formats whose records
+ * are read, not decoded (LAS, PLY), and LAZ files that cannot be
+ * positioned (no usable chunk table). Returns 0, or -1 with err set
+ * (WPD_E_IO naming the file, WPD_E_MEMORY). */
+int wpd_reader_new_cache(wpd_reader *r, const char *dir, int id, wpd_record_cache **out,
                          wpd_error *err);
 
 /* From now on r keeps what it decodes in c (made by wpd_reader_new_cache

@@ -11,12 +11,9 @@
 #include <unistd.h>
 
 #include "common/fullio.h"
-#include "common/tmpdir.h"
 
 struct wpd_record_cache {
-    char dir[PATH_MAX];
-    char file[PATH_MAX + 16];
-    int fd;
+    char file[PATH_MAX + 32];
     uint32_t record_length;
     uint64_t nchunks;
     uint64_t *first;              /* [nchunks + 1] */
@@ -24,13 +21,12 @@ struct wpd_record_cache {
     _Atomic uint64_t hits;
 };
 
-wpd_record_cache *wpd_record_cache_create(const char *base, const char *path,
+wpd_record_cache *wpd_record_cache_create(const char *dir, int id, const char *path,
                                           uint32_t record_length, const uint64_t *first,
                                           uint64_t nchunks, wpd_error *err)
 {
     wpd_record_cache *c = calloc(1, sizeof *c);
     if (c) {
-        c->fd = -1;
         c->first = malloc((nchunks + 1) * sizeof *c->first);
         c->complete = calloc(nchunks ? nchunks : 1, sizeof *c->complete);
     }
@@ -42,27 +38,40 @@ wpd_record_cache *wpd_record_cache_create(const char *base, const char *path,
     memcpy(c->first, first, (nchunks + 1) * sizeof *c->first);
     c->nchunks = nchunks;
     c->record_length = record_length;
-    if (wpd_tmpdir_create(base, "wpd-cache", c->dir, sizeof c->dir, err)) {
-        c->dir[0] = '\0';
-        wpd_record_cache_free(c);
-        return NULL;
-    }
-    snprintf(c->file, sizeof c->file, "%s/records", c->dir);
-    c->fd = open(c->file, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (c->fd < 0) {
+    int len = snprintf(c->file, sizeof c->file, "%s/records-%d", dir, id);
+    int fd = len > 0 && (size_t)len < sizeof c->file
+                 ? open(c->file, O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600)
+                 : -1;
+    if (fd < 0) {
         wpd_fail_errno(err, "%s: cannot create", c->file);
+        c->file[0] = '\0';
         wpd_record_cache_free(c);
         return NULL;
     }
+    close(fd);
     return c;
+}
+
+/* The cache file, opened for one read or write. */
+static int open_file(const wpd_record_cache *c, wpd_error *err)
+{
+    int fd = open(c->file, O_RDWR | O_CLOEXEC);
+    if (fd < 0)
+        wpd_fail_errno(err, "%s: cannot open", c->file);
+    return fd;
 }
 
 int wpd_record_cache_write(wpd_record_cache *c, uint64_t index, const uint8_t *rec, size_t n,
                            wpd_error *err)
 {
-    if (wpd_pwrite_full(c->fd, rec, n * c->record_length, index * c->record_length))
-        return wpd_fail_errno(err, "%s: cannot write", c->file);
-    return 0;
+    int fd = open_file(c, err);
+    if (fd < 0)
+        return -1;
+    int rc = 0;
+    if (wpd_pwrite_full(fd, rec, n * c->record_length, index * c->record_length))
+        rc = wpd_fail_errno(err, "%s: cannot write", c->file);
+    close(fd);
+    return rc;
 }
 
 void wpd_record_cache_complete(wpd_record_cache *c, uint64_t chunk)
@@ -100,8 +109,14 @@ int wpd_record_cache_covers(const wpd_record_cache *c, uint64_t index, size_t n)
 int wpd_record_cache_read(wpd_record_cache *c, uint64_t index, uint8_t *rec, size_t n,
                           wpd_error *err)
 {
+    int fd = open_file(c, err);
+    if (fd < 0)
+        return -1;
     size_t bytes = n * c->record_length;
-    ssize_t got = wpd_pread_full(c->fd, rec, bytes, index * c->record_length);
+    ssize_t got = wpd_pread_full(fd, rec, bytes, index * c->record_length);
+    int saved = errno;
+    close(fd);
+    errno = saved;
     if (got < 0)
         return wpd_fail_errno(err, "%s: cannot read", c->file);
     if ((size_t)got != bytes)
@@ -120,10 +135,8 @@ void wpd_record_cache_free(wpd_record_cache *c)
 {
     if (!c)
         return;
-    if (c->fd >= 0)
-        close(c->fd);
-    if (c->dir[0])
-        wpd_tmpdir_remove(c->dir);
+    if (c->file[0])
+        unlink(c->file);
     free(c->first);
     free((void *)c->complete);
     free(c);

@@ -4,9 +4,12 @@
  * The engine reads its inputs three times (scan, tile, records). Decoding
  * LAZ costs about ten times reading LAS, so the first pass over a LAZ file
  * keeps what it decodes: the raw point records, at their index times the
- * record length, in one file of a private directory
- * "<base>/wpd-cache-<pid>-XXXXXX" (common/tmpdir.h: removed on every exit
- * path, swept after a kill). Later passes read the records back with one
+ * record length, in a file of its own in the run's private directory
+ * "<base>/wpd-cache-<pid>-XXXXXX" (made by the caller with common/tmpdir.h:
+ * removed on every exit path, swept after a kill; one directory for all
+ * inputs, since a run may read thousands). The file is opened for each
+ * read or write, not held: a cloud of thousands of inputs holds no file
+ * descriptor per input. Later passes read the records back with one
  * pread where every chunk they touch is complete, and decode only what is
  * not. The records are stored as decoded, not compressed again: a fast
  * zstd level costs a quarter of a decode and the cache lives one run
@@ -28,12 +31,12 @@
 
 typedef struct wpd_record_cache wpd_record_cache;
 
-/* Creates an empty cache in a new private directory under base for the
- * records of file `path` (named in messages): nchunks chunks, chunk c
- * holding the records first[c] .. first[c + 1] - 1 (first: nchunks + 1
- * ascending indices, copied), record_length bytes each. Returns NULL with
- * err set (WPD_E_IO naming base, WPD_E_MEMORY). */
-wpd_record_cache *wpd_record_cache_create(const char *base, const char *path,
+/* Creates an empty cache, the file "<dir>/records-<id>", for the records
+ * of input `path` (named in messages): nchunks chunks, chunk c holding the
+ * records first[c] .. first[c + 1] - 1 (first: nchunks + 1 ascending
+ * indices, copied), record_length bytes each. Returns NULL with err set
+ * (WPD_E_IO naming the file, WPD_E_MEMORY). */
+wpd_record_cache *wpd_record_cache_create(const char *dir, int id, const char *path,
                                           uint32_t record_length, const uint64_t *first,
                                           uint64_t nchunks, wpd_error *err);
 
@@ -57,7 +60,7 @@ int wpd_record_cache_read(wpd_record_cache *c, uint64_t index, uint8_t *rec, siz
 /* Records read back from the cache so far (for tests and the report). */
 uint64_t wpd_record_cache_hits(const wpd_record_cache *c);
 
-/* Removes the file and its directory and frees c. NULL is allowed. */
+/* Removes the file and frees c. NULL is allowed. */
 void wpd_record_cache_free(wpd_record_cache *c);
 
 #endif

@@ -69,6 +69,29 @@ def test_laz_resample_same_bytes_as_las_twin():
             assert os.listdir("tmp") == [], os.listdir("tmp")
 
 
+def test_many_laz_inputs_share_one_cache_directory():
+    """A run over more LAZ inputs than the temporary-directory registry has
+    slots (64) and than a process may hold descriptors for comfortably:
+    one cache directory for all, each file opened only to be read or
+    written. Same bytes as from the LAS twins; nothing left in the tmpdir."""
+    import shutil
+    os.makedirs("tmp", exist_ok=True)
+    lazs, lases = [], []
+    for i in range(70):
+        for src, dst in ((data("laz", "laspy_simple.laz"), lazs), (data("laz", "laspy_simple.las"), lases)):
+            path = "in%02d%s" % (i, src[-4:])
+            shutil.copyfile(src, path)
+            dst.append(path)
+    opts = ("-n", 30000, "--no-smooth", "--tmpdir", "tmp", "--force")
+    wpd("resample", *lazs, "-o", "from_laz.las", *opts, "--report", "r.json")
+    wpd("resample", *lases, "-o", "from_las.las", *opts)
+    with open("from_laz.las", "rb") as a, open("from_las.las", "rb") as b:
+        assert a.read() == b.read()
+    with open("r.json") as f:
+        assert json.load(f)["records_cached"] == 2 * 70 * 1065
+    assert os.listdir("tmp") == [], os.listdir("tmp")
+
+
 def test_laz_info_layered():
     out = wpd("info", data("laz", "laspy_append-bug.laz")).stdout
     assert "compressor:       layered chunked (3), LASzip 2.2r0" in out, out
