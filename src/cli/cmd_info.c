@@ -6,7 +6,6 @@
 #include "io/cloud.h"
 #include "io/las.h"
 #include "io/laz.h"
-#include "io/reader.h"
 #include "resample/pass.h"
 
 #include <getopt.h>
@@ -55,20 +54,15 @@ static int tally_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 }
 
 /* Finite points, their bounds and (LAS) return numbers, from one pass over
- * path read (and, for LAZ, decoded) on every thread (resample/pass.h);
- * *dropped: the points with non-finite coordinates. */
-static int scan_points(const char *path, const wpd_header *h, wpd_bounds *b,
-                       uint64_t by_return[16], uint64_t *dropped, wpd_error *err)
+ * the one-file cloud read (and, for LAZ, decoded) on every thread
+ * (resample/pass.h); *dropped: the points with non-finite coordinates. */
+static int scan_points(wpd_cloud *cloud, wpd_bounds *b, uint64_t by_return[16],
+                       uint64_t *dropped, wpd_error *err)
 {
-    wpd_cloud *cloud = wpd_cloud_open(&path, 1, err);
-    if (!cloud)
-        return -1;
     int threads = omp_get_max_threads();
-    info_scan sc = {h, calloc((size_t)threads, sizeof *sc.lanes)};
-    if (!sc.lanes) {
-        wpd_cloud_close(cloud);
+    info_scan sc = {wpd_cloud_header(cloud, 0), calloc((size_t)threads, sizeof *sc.lanes)};
+    if (!sc.lanes)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    }
     for (int t = 0; t < threads; t++)
         wpd_bounds_reset(&sc.lanes[t].box);
     wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = tally_lane, .arg = &sc};
@@ -81,7 +75,6 @@ static int scan_points(const char *path, const wpd_header *h, wpd_bounds *b,
     }
     *dropped = wpd_cloud_dropped(cloud);
     free(sc.lanes);
-    wpd_cloud_close(cloud);
     return rc;
 }
 
@@ -329,14 +322,14 @@ static void print_json(const wpd_header *h, const wpd_bounds *b, uint64_t droppe
 
 static int info_one(const char *path, const info_options *opt, int first, wpd_error *err)
 {
-    wpd_reader *r = wpd_reader_open(path, err);
-    if (!r)
+    wpd_cloud *cloud = wpd_cloud_open(&path, 1, err);
+    if (!cloud)
         return -1;
-    const wpd_header *h = wpd_reader_header(r);
+    const wpd_header *h = wpd_cloud_header(cloud, 0);
     wpd_bounds b;
     uint64_t by_return[16] = {0};
     uint64_t dropped = 0;
-    int rc = opt->header_only ? 0 : scan_points(path, h, &b, by_return, &dropped, err);
+    int rc = opt->header_only ? 0 : scan_points(cloud, &b, by_return, &dropped, err);
     if (rc == 0) {
         const wpd_bounds *pb = opt->header_only ? NULL : &b;
         wpd_warnings w = h->warnings;
@@ -348,7 +341,7 @@ static int info_one(const char *path, const info_options *opt, int first, wpd_er
         else
             print_text(h, pb, dropped);
     }
-    wpd_reader_close(r);
+    wpd_cloud_close(cloud);
     return rc;
 }
 

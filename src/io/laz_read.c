@@ -260,20 +260,6 @@ static int decode_points(wpd_reader *r, laz_reader *z, uint8_t *rec, size_t n, w
     return 0;
 }
 
-/* Index of the chunk holding point index (tabled chunks). */
-static uint64_t chunk_holding(const laz_reader *z, uint64_t index)
-{
-    uint64_t lo = 0, hi = z->nchunks; /* last chunk whose first point <= index */
-    while (hi - lo > 1) {
-        uint64_t mid = lo + (hi - lo) / 2;
-        if (z->first[mid] <= index)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
 /* The decoder goes to the start of index's chunk; the points before index
  * in it are decoded unseen by the next read that decodes. */
 static void position(wpd_reader *r, laz_reader *z, uint64_t index)
@@ -283,7 +269,7 @@ static void position(wpd_reader *r, laz_reader *z, uint64_t index)
         z->chunk_left = 0;
         return;
     }
-    z->chunk = chunk_holding(z, index);
+    z->chunk = wpd_chunk_holding(z->first, z->nchunks, index);
     z->chunk_left = 0;
     z->next = z->first[z->chunk];
     z->skip_to = index;
@@ -329,17 +315,13 @@ static int skip_points(wpd_reader *r, laz_reader *z, wpd_error *err)
 static long read_cached(wpd_reader *r, laz_reader *z, uint64_t index, size_t n, uint8_t *dst,
                         wpd_error *err)
 {
-    if (!r->cache || !wpd_record_cache_covers(r->cache, index, 1))
+    size_t held = r->cache ? wpd_record_cache_held(r->cache, index, n) : 0;
+    if (held == 0)
         return 0;
-    uint64_t k = chunk_holding(z, index);
-    while (k < z->nchunks && z->first[k + 1] < index + n &&
-           wpd_record_cache_covers(r->cache, z->first[k + 1], 1))
-        k++;
-    uint64_t end = z->first[k + 1] < index + n ? z->first[k + 1] : index + n;
-    if (wpd_record_cache_read(r->cache, index, dst, (size_t)(end - index), err))
+    if (wpd_record_cache_read(r->cache, index, dst, held, err))
         return -1;
-    position(r, z, end);
-    return (long)(end - index);
+    position(r, z, index + held);
+    return (long)held;
 }
 
 static long laz_read(wpd_reader *r, wpd_batch *b, wpd_error *err)

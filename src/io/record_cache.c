@@ -80,30 +80,15 @@ void wpd_record_cache_complete(wpd_record_cache *c, uint64_t chunk)
         atomic_store_explicit(&c->complete[chunk], 1, memory_order_release);
 }
 
-/* The chunk holding record index (first[chunk] <= index < first[chunk + 1]). */
-static uint64_t chunk_of(const wpd_record_cache *c, uint64_t index)
+size_t wpd_record_cache_held(const wpd_record_cache *c, uint64_t index, size_t n)
 {
-    uint64_t lo = 0, hi = c->nchunks;
-    while (hi - lo > 1) {
-        uint64_t mid = lo + (hi - lo) / 2;
-        if (c->first[mid] <= index)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
-int wpd_record_cache_covers(const wpd_record_cache *c, uint64_t index, size_t n)
-{
-    if (n == 0)
-        return 1;
-    if (index + n > c->first[c->nchunks])
-        return 0;
-    for (uint64_t k = chunk_of(c, index); k < c->nchunks && c->first[k] < index + n; k++)
+    uint64_t end = index + n < c->first[c->nchunks] ? index + n : c->first[c->nchunks];
+    uint64_t k = wpd_chunk_holding(c->first, c->nchunks, index);
+    for (; k < c->nchunks && c->first[k] < end; k++)
         if (!atomic_load_explicit(&c->complete[k], memory_order_acquire))
-            return 0;
-    return 1;
+            break;
+    uint64_t held = k < c->nchunks && c->first[k] < end ? c->first[k] : end;
+    return held > index ? (size_t)(held - index) : 0;
 }
 
 int wpd_record_cache_read(wpd_record_cache *c, uint64_t index, uint8_t *rec, size_t n,

@@ -12,7 +12,7 @@
  * descriptor per input. Later passes read the records back with one
  * pread where every chunk they touch is complete, and decode only what is
  * not. The records are stored as decoded, not compressed again: a fast
- * zstd level costs a quarter of a decode and the cache lives one run
+ * zstd level costs half a decode or more and the cache lives one run
  * (docs/engine.md, "Compressed inputs").
  *
  * A chunk (the compressor's unit: decoding starts at its first point) is
@@ -31,6 +31,22 @@
 
 typedef struct wpd_record_cache wpd_record_cache;
 
+/* The chunk holding record index in a chunk table: the last c < nchunks
+ * with first[c] <= index (first: nchunks + 1 ascending indices). */
+static inline uint64_t wpd_chunk_holding(const uint64_t *first, uint64_t nchunks,
+                                         uint64_t index)
+{
+    uint64_t lo = 0, hi = nchunks;
+    while (hi - lo > 1) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (first[mid] <= index)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 /* Creates an empty cache, the file "<dir>/records-<id>", for the records
  * of input `path` (named in messages): nchunks chunks, chunk c holding the
  * records first[c] .. first[c + 1] - 1 (first: nchunks + 1 ascending
@@ -48,9 +64,9 @@ int wpd_record_cache_write(wpd_record_cache *c, uint64_t index, const uint8_t *r
 /* Marks chunk `chunk` complete: every record of it was written. */
 void wpd_record_cache_complete(wpd_record_cache *c, uint64_t chunk);
 
-/* 1 when every chunk holding a record of index .. index + n - 1 is
- * complete, else 0. */
-int wpd_record_cache_covers(const wpd_record_cache *c, uint64_t index, size_t n);
+/* How many of the records index .. index + n - 1, from the first on, lie
+ * in complete chunks (0 when index's chunk is not complete). */
+size_t wpd_record_cache_held(const wpd_record_cache *c, uint64_t index, size_t n);
 
 /* Reads records index .. index + n - 1 (covered) into rec. Returns 0, or -1
  * with err set (WPD_E_IO). */
