@@ -1,23 +1,36 @@
 #!/usr/bin/env bash
-# LAZ decode speed (issue 13): wpd's reader on 1 and 2 threads (each
-# thread reads an equal share of the points through its own reader, as the
-# engine's range reads do) against laz-perf on one core, on the shared LAZ
-# files of point formats 1 and 3 with the most points.
+# LAZ decode speed (issue 13): wpd's reader on 1 and 2 threads (build/
+# laz_bench: units of whole chunks handed out to the threads as the
+# engine's passes do) against laz-perf on one core, on the shared LAZ files
+# of point formats 1, 3 and 7 with the most points. The machine is noisy:
+# LAZ_DECODE_ROUNDS rounds (default 5), each the best of 10 runs per
+# configuration, interleaved; the medians are printed, and the median of
+# the rounds' 2-thread / 1-thread ratios.
 # laz-perf is measured when LAZPERF_NODE_PATH names a node_modules folder
 # holding laz-perf 0.0.7 (see ../shared/tools/laz2las.js for the setup).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 make -s wpd build/laz_bench
-files=(lastools_fusa pdal_autzen_trim pdal_ellipsoid_copc-draft)
+median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
+rate() { sed 's/.* \([0-9.]*\) M points\/s$/\1/'; }
+files=(lastools_fusa pdal_autzen_trim pdal_ellipsoid_copc-draft copcvalidator_ellipsoid-1.4)
 for f in "${files[@]}"; do
     path=../shared/data/laz/$f.laz
     [ -f "$path" ] || { echo "missing $path"; continue; }
     cat "$path" >/dev/null
-    build/laz_bench "$path" 1
-    build/laz_bench "$path" 2
-    if [ -n "${LAZPERF_NODE_PATH:-}" ]; then
-        NODE_PATH=$LAZPERF_NODE_PATH node bench/laz_perf.js "$path"
-    fi
+    one=() two=() ratio=() perf=()
+    for _ in $(seq "${LAZ_DECODE_ROUNDS:-5}"); do
+        a=$(build/laz_bench "$path" 1 10 | rate)
+        b=$(build/laz_bench "$path" 2 10 | rate)
+        one+=("$a") two+=("$b") ratio+=("$(echo "scale=3; $b / $a" | bc)")
+        if [ -n "${LAZPERF_NODE_PATH:-}" ]; then
+            perf+=("$(NODE_PATH=$LAZPERF_NODE_PATH node bench/laz_perf.js "$path" | rate)")
+        fi
+    done
+    echo "laz decode $f: 1 thread $(printf '%s\n' "${one[@]}" | median) M points/s," \
+         "2 threads $(printf '%s\n' "${two[@]}" | median) M points/s" \
+         "(ratio $(printf '%s\n' "${ratio[@]}" | median))," \
+         "laz-perf $([ ${#perf[@]} -gt 0 ] && echo "$(printf '%s\n' "${perf[@]}" | median) M points/s" || echo "not measured")"
 done
 
 # LAZ encode speed (one core: the writer is serial) and size against LAS:
@@ -50,7 +63,6 @@ echo "laz size: $laz_bytes bytes, LAS $las_bytes bytes: $(echo "scale=1; 100 * $
 # LAZ_E2E_POINTS sets the size (default 100000000; 0 skips it: the files
 # take 3.4 + 3.6 GB as LAS and 0.75 + 0.73 GB as LAZ).
 e2e=${LAZ_E2E_POINTS:-100000000}
-median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 # e2e_case NAME LAS LAZ
 e2e_case() {
     local name=$1 las=$2 laz=$3 out=bench/out/laz kind in

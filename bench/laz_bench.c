@@ -2,15 +2,16 @@
  *
  *   laz_bench FILE [THREADS] [REPEAT] [xyz]
  *
- * Opens FILE (LAZ or LAS) once per thread, gives each thread an equal
- * share of the point indices (wpd_reader_seek_range: a LAZ reader decodes
- * from the start of the chunk holding the share's first point, so shares
- * that do not start on a chunk cost the decoding of part of a chunk
- * twice) and reads every point in 50,000-point batches. Prints the best
- * of REPEAT (default 5) runs in M points/s. THREADS defaults to 1; more
- * than 1 needs a file that can seek (a LAZ file with a chunk table).
- * "xyz" reads positions only (wpd_reader_positions_only: layered LAZ then
- * decodes only its X, Y and Z layers).
+ * Decodes every point of FILE (LAZ or LAS) on THREADS threads (default 1)
+ * the way the engine's passes do (resample/pass.c): the points are cut
+ * into units of whole LAZ chunks (the file's fixed chunk size; 50,000
+ * points for variable chunks or LAS), each thread opens the file once and
+ * takes the next unit from a shared counter, seeks to it
+ * (wpd_reader_seek_range) and reads it in 50,000-point batches. Prints the
+ * best of REPEAT (default 5) runs in M points/s, opening included. More
+ * than 1 thread needs a file that can seek (a LAZ file with a chunk
+ * table). "xyz" reads positions only (wpd_reader_positions_only: layered
+ * LAZ then decodes only its X, Y and Z layers).
  */
 #include "io/reader.h"
 
@@ -27,9 +28,19 @@ static double now(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
-/* Reads points [from, to) of path; returns the count or -1. */
-static long long read_share(const char *path, unsigned long long from, unsigned long long to,
-                            int seek, int xyz)
+/* Points per unit: a fixed chunk size, else 50,000. */
+static unsigned long long unit_points(const wpd_header *h)
+{
+    const wpd_laz_info *z = &h->las.laz;
+    if (h->format == WPD_FMT_LAS && z->compressed && z->chunk_size && z->chunk_size != UINT32_MAX)
+        return z->chunk_size;
+    return 50000;
+}
+
+/* One thread's share: units taken from *next until none is left. Returns
+ * the points read or -1. */
+static long long read_units(const char *path, unsigned long long count, unsigned long long unit,
+                            unsigned long long *next, int seek, int xyz)
 {
     wpd_error err;
     wpd_reader *r = wpd_reader_open(path, &err);
@@ -40,15 +51,29 @@ static long long read_share(const char *path, unsigned long long from, unsigned 
     wpd_batch b;
     long long n = 0;
     long got = 0;
-    if (wpd_batch_init(&b, 50000, wpd_reader_header(r)->schema.record_size) ||
-        (seek && wpd_reader_seek_range(r, from, to, &err))) {
+    if (wpd_batch_init(&b, 50000, wpd_reader_header(r)->schema.record_size)) {
         wpd_reader_close(r);
         return -1;
     }
-    if (xyz)
-        wpd_reader_positions_only(r, 1);
-    while ((got = wpd_reader_read(r, &b, &err)) > 0)
-        n += got;
+    for (;;) {
+        unsigned long long u;
+#pragma omp atomic capture
+        u = (*next)++;
+        unsigned long long from = u * unit;
+        if (from >= count)
+            break;
+        unsigned long long to = count - from < unit ? count : from + unit;
+        if (seek && wpd_reader_seek_range(r, from, to, &err)) {
+            got = -1;
+            break;
+        }
+        if (xyz)
+            wpd_reader_positions_only(r, 1);
+        while ((got = wpd_reader_read(r, &b, &err)) > 0)
+            n += got;
+        if (got < 0)
+            break;
+    }
     if (got < 0)
         fprintf(stderr, "%s\n", err.msg);
     wpd_batch_free(&b);
@@ -57,16 +82,19 @@ static long long read_share(const char *path, unsigned long long from, unsigned 
 }
 
 /* One run on threads threads: the seconds it took, or -1. */
-static double run(const char *path, unsigned long long count, int threads, int xyz)
+static double run(const char *path, unsigned long long count, unsigned long long unit,
+                  int threads, int xyz)
 {
     double t0 = now();
     long long total = 0;
     int bad = 0;
-#pragma omp parallel for num_threads(threads) reduction(+ : total, bad)
-    for (int t = 0; t < threads; t++) {
-        unsigned long long from = count * (unsigned long long)t / (unsigned long long)threads;
-        unsigned long long to = count * (unsigned long long)(t + 1) / (unsigned long long)threads;
-        long long n = read_share(path, from, to, threads > 1, xyz);
+    unsigned long long next = 0;
+    /* One thread reads the whole file in one unit, without seeking. */
+    if (threads == 1)
+        unit = count ? count : 1;
+#pragma omp parallel num_threads(threads) reduction(+ : total, bad)
+    {
+        long long n = read_units(path, count, unit, &next, threads > 1, xyz);
         if (n < 0)
             bad++;
         else
@@ -92,6 +120,7 @@ int main(int argc, char **argv)
         return 2;
     }
     unsigned long long count = wpd_reader_header(r)->point_count;
+    unsigned long long unit = unit_points(wpd_reader_header(r));
     int can_seek = wpd_reader_can_seek(r);
     wpd_reader_close(r);
     if (threads < 1 || (threads > 1 && !can_seek)) {
@@ -100,14 +129,14 @@ int main(int argc, char **argv)
     }
     double best = 1e30;
     for (int i = 0; i < repeat; i++) {
-        double s = run(argv[1], count, threads, xyz);
+        double s = run(argv[1], count, unit, threads, xyz);
         if (s < 0)
             return 2;
         if (s < best)
             best = s;
     }
-    printf("%s: %llu points, %d thread%s%s, best of %d: %.4f s, %.2f M points/s\n", argv[1],
-           count, threads, threads > 1 ? "s" : "", xyz ? ", positions only" : "", repeat, best,
+    printf("%s: %llu points, units of %llu, %d thread%s%s, best of %d: %.4f s, %.2f M points/s\n", argv[1],
+           count, threads > 1 ? unit : count, threads, threads > 1 ? "s" : "", xyz ? ", positions only" : "", repeat, best,
            (double)count / best / 1e6);
     return 0;
 }

@@ -26,7 +26,7 @@
  * several batch boundaries and end on a partial batch. */
 #define FUZZ_BATCH_CAP 97
 
-enum { FUZZ_ACCEPTED = 0, FUZZ_REFUSED = 1, FUZZ_BROKEN = -1 };
+enum { FUZZ_ACCEPTED = 0, FUZZ_REFUSED = 1, FUZZ_SKIPPED = 2, FUZZ_BROKEN = -1 };
 
 static int fuzz_broken(char *why, size_t whylen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
@@ -155,8 +155,13 @@ static int fuzz_check_batch(const wpd_header *h, const wpd_batch *b, long got, c
 
 /* Streams path through the reader. Returns FUZZ_ACCEPTED when the file was
  * read to the end, FUZZ_REFUSED when it was refused cleanly (err holds the
- * message), FUZZ_BROKEN with why set when a promise was broken. */
-static int fuzz_drive(const char *path, wpd_error *err, char *why, size_t whylen)
+ * message), FUZZ_BROKEN with why set when a promise was broken, and
+ * FUZZ_SKIPPED, unread, when its header counts more than max_points points
+ * (0: no limit): a decoder's time grows with the count it is told, so a
+ * target spends it on many small inputs instead of a few that claim
+ * millions (the per-point paths are the same at any count). */
+static int fuzz_drive(const char *path, uint64_t max_points, wpd_error *err, char *why,
+                      size_t whylen)
 {
     wpd_error_clear(err);
     why[0] = '\0';
@@ -164,6 +169,10 @@ static int fuzz_drive(const char *path, wpd_error *err, char *why, size_t whylen
     if (!r)
         return fuzz_check_refusal(path, err, why, whylen);
     const wpd_header *h = wpd_reader_header(r);
+    if (max_points && h->point_count > max_points) {
+        wpd_reader_close(r);
+        return FUZZ_SKIPPED;
+    }
     int rc = fuzz_check_schema(h, why, whylen);
     if (rc == 0)
         rc = fuzz_check_warnings(path, &h->warnings, why, whylen);

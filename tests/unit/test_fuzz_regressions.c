@@ -42,7 +42,7 @@ TEST(fuzz_regressions_read_or_refused_cleanly)
         char path[512], why[1024];
         snprintf(path, sizeof path, "%s/%s", REGRESSION_DIR, names[i]);
         wpd_error err;
-        int rc = fuzz_drive(path, &err, why, sizeof why);
+        int rc = fuzz_drive(path, 0, &err, why, sizeof why);
         CHECK_MSG(rc != FUZZ_BROKEN, "%s: %s", path, why);
         accepted += rc == FUZZ_ACCEPTED;
         refused += rc == FUZZ_REFUSED;
