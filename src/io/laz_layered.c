@@ -206,6 +206,12 @@ int laz_layered_open(laz_layered *L, laz_in *in, uint64_t limit, uint32_t record
     L->count = *count = las_get_u32(b);
     if ((*why = read_sizes(L, in, limit, &load)))
         return -1;
+    /* Every point after the first codes its changed fields in the XY layer,
+     * which the decoder reads unconditionally: empty, it has no stream. */
+    if (L->count > 1 && !L->layer[P14_XY].size) {
+        *why = "its XY layer is empty, yet the chunk holds more than one point (corrupt)";
+        return -1;
+    }
     int rc = load_layers(L, in, load, why);
     return rc ? rc : start_items(L, rec);
 }

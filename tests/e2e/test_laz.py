@@ -156,7 +156,18 @@ def test_laz_damaged_exit_2():
         corrupt[i] = (i * 37) & 255
     with open("corrupt.laz", "wb") as f:
         f.write(corrupt)
-    for name in ("cut.laz", "corrupt.laz"):
+    # A layered chunk (point format 6) whose XY layer claims 0 bytes: its
+    # decoder had no stream and divided by zero (a fuzz finding).
+    with open(data("laz", "rlas_las14_prf6.laz"), "rb") as f:
+        b = bytearray(f.read())
+    off = struct.unpack_from("<I", b, 96)[0]
+    reclen = struct.unpack_from("<H", b, 105)[0]
+    xy_size = off + 8 + reclen + 4   # after the chunk's raw first point and its count
+    assert struct.unpack_from("<I", b, xy_size)[0] > 0
+    struct.pack_into("<I", b, xy_size, 0)
+    with open("no_xy.laz", "wb") as f:
+        f.write(b)
+    for name in ("cut.laz", "corrupt.laz", "no_xy.laz"):
         for cmd in (("info", name), ("convert", name, "out.las", "--force")):
             p = wpd(*cmd, check=False)
             # cut.laz also warns that its chunk table is gone (read on sequentially)
