@@ -23,6 +23,8 @@ typedef struct wpd_reader_ops {
      * wpd_reader_new_cache. */
     int (*new_cache)(wpd_reader *r, const char *dir, int id, wpd_record_cache **out,
                      wpd_error *err);
+    /* NULL for formats without chunks. Same contract as wpd_reader_chunks. */
+    uint64_t (*chunks)(const wpd_reader *r, const uint64_t **first);
 } wpd_reader_ops;
 
 struct wpd_reader {

@@ -619,7 +619,7 @@ static void las_close(wpd_reader *r)
     r->impl = NULL;
 }
 
-static const wpd_reader_ops las_reader_ops = {las_read, las_seek, las_close, NULL, NULL};
+static const wpd_reader_ops las_reader_ops = {las_read, las_seek, las_close, NULL, NULL, NULL};
 
 int wpd_las_open_reader(wpd_reader *r, wpd_error *err)
 {

@@ -401,10 +401,17 @@ static int laz_new_cache(wpd_reader *r, const char *dir, int id, wpd_record_cach
     return *out ? 0 : -1;
 }
 
+static uint64_t laz_chunks(const wpd_reader *r, const uint64_t **first)
+{
+    const laz_reader *z = r->impl;
+    *first = z->first;
+    return z->nchunks;
+}
+
 static const wpd_reader_ops laz_ops_seek = {laz_read, laz_seek, laz_close, laz_positions_only,
-                                            laz_new_cache};
+                                            laz_new_cache, laz_chunks};
 static const wpd_reader_ops laz_ops_sequential = {laz_read, NULL, laz_close,
-                                                  laz_positions_only, NULL};
+                                                  laz_positions_only, NULL, NULL};
 
 /* ---- opening ---- */
 

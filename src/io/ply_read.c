@@ -517,8 +517,8 @@ static void ply_close(wpd_reader *r)
     r->impl = NULL;
 }
 
-static const wpd_reader_ops seekable_ops = {ply_read, ply_seek, ply_close, NULL, NULL};
-static const wpd_reader_ops stream_ops = {ply_read, NULL, ply_close, NULL, NULL};
+static const wpd_reader_ops seekable_ops = {ply_read, ply_seek, ply_close, NULL, NULL, NULL};
+static const wpd_reader_ops stream_ops = {ply_read, NULL, ply_close, NULL, NULL, NULL};
 
 static int open_reader(wpd_reader *r, ply_reader *pr, wpd_error *err)
 {

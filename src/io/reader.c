@@ -100,6 +100,27 @@ int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error
     return 0;
 }
 
+uint64_t wpd_reader_chunks(const wpd_reader *r, const uint64_t **first)
+{
+    *first = NULL;
+    return r->ops->chunks ? r->ops->chunks(r, first) : 0;
+}
+
+uint64_t wpd_chunk_units(const uint64_t *first, uint64_t nchunks, uint64_t n, uint64_t cap,
+                         uint64_t *starts)
+{
+    uint64_t units = 0, c = 0;
+    while (c < nchunks && first[c] < n) {
+        starts[units++] = first[c];
+        uint64_t end = first[c] + cap;
+        c++; /* a unit takes one chunk at least */
+        while (c < nchunks && first[c + 1] <= end && first[c] < n)
+            c++;
+    }
+    starts[units] = n;
+    return units;
+}
+
 int wpd_reader_new_cache(wpd_reader *r, const char *dir, int id, wpd_record_cache **out,
                          wpd_error *err)
 {

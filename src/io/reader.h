@@ -44,6 +44,21 @@ int wpd_reader_seek(wpd_reader *r, uint64_t index, wpd_error *err);
  * the next seek. */
 int wpd_reader_seek_range(wpd_reader *r, uint64_t index, uint64_t end, wpd_error *err);
 
+/* The chunk table of a compressed file that can seek: returns the number
+ * of chunks and points *first at nchunks + 1 ascending record indices
+ * (chunk c holds records first[c] .. first[c + 1] - 1), valid until r is
+ * closed. Returns 0 and sets *first to NULL for other files. */
+uint64_t wpd_reader_chunks(const wpd_reader *r, const uint64_t **first);
+
+/* Cuts records [0, n) of a file whose chunk table is first (nchunks
+ * chunks, as wpd_reader_chunks gives) into units of whole chunks, the unit
+ * a reader decodes without decoding any point twice: consecutive chunks
+ * while their records fit cap (> 0), a chunk of more alone. Writes the
+ * units' first records to starts, then n (room for nchunks + 1 entries),
+ * and returns the number of units. */
+uint64_t wpd_chunk_units(const uint64_t *first, uint64_t nchunks, uint64_t n, uint64_t cap,
+                         uint64_t *starts);
+
 /* Asks for positions only (on = 1) or whole records again (0), from the
  * next read after a seek or chunk start on: a reader that can save work
  * (layered LAZ: only the X, Y and Z layers are decoded, the others not

@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "common/first_error.h"
+#include "io/reader.h"
 #include "resample/budget.h"
 
 typedef struct lane {
@@ -36,6 +37,9 @@ typedef struct pass_state {
     int nfiles;
     uint64_t *file_first;     /* [nfiles] first record of each file */
     uint64_t *file_unit;      /* [nfiles] records per unit of each file */
+    uint64_t **file_starts;   /* [nfiles] first records of a file's units, from
+                                 its first (LAZ with chunks of varying size);
+                                 NULL: units of file_unit records */
     uint64_t *unit_first;     /* [nfiles + 1] first unit of each file; the last: all units */
     _Atomic uint64_t next_unit;
     /* serial reading, under mu */
@@ -101,8 +105,14 @@ static void unit_range(const pass_state *s, uint64_t u, uint64_t *first, uint64_
         else
             hi = mid - 1;
     }
+    uint64_t k = u - s->unit_first[lo];
+    if (s->file_starts[lo]) {
+        *first = s->file_first[lo] + s->file_starts[lo][k];
+        *count = s->file_starts[lo][k + 1] - s->file_starts[lo][k];
+        return;
+    }
     uint64_t unit = s->file_unit[lo];
-    *first = s->file_first[lo] + (u - s->unit_first[lo]) * unit;
+    *first = s->file_first[lo] + k * unit;
     *count = s->end - *first < unit ? s->end - *first : unit;
 }
 
@@ -224,24 +234,59 @@ static uint64_t file_unit(const wpd_cloud *c, int f, uint64_t cap)
     return z->chunk_size > cap ? z->chunk_size : cap / z->chunk_size * z->chunk_size;
 }
 
-/* Units of each file within records [0, end). */
-static int plan_units(pass_state *s)
+/* Units of whole chunks for a LAZ file whose chunk table gives chunks of
+ * varying size (COPC: one chunk per octree node): *starts (NULL when the
+ * file has none such, or a chunk too large for a unit) and their number,
+ * for its first n records. Returns 0, or -1 with err set. */
+static int varying_chunk_units(const wpd_header *h, uint64_t n, uint64_t cap, uint64_t **starts,
+                               uint64_t *units, wpd_error *err)
+{
+    const wpd_laz_info *z = &h->las.laz;
+    *starts = NULL;
+    if (h->format != WPD_FMT_LAS || !z->compressed || z->compressor < 2 || !z->chunks ||
+        (z->chunk_size && z->chunk_size != UINT32_MAX) || !n)
+        return 0;
+    wpd_reader *r = wpd_reader_open(h->path, err);
+    if (!r)
+        return -1;
+    const uint64_t *first;
+    uint64_t nchunks = wpd_reader_chunks(r, &first), largest = 0;
+    for (uint64_t c = 0; c < nchunks; c++)
+        largest = first[c + 1] - first[c] > largest ? first[c + 1] - first[c] : largest;
+    int rc = 0;
+    if (nchunks && largest <= WPD_PASS_MAX_UNIT) {
+        if ((*starts = malloc(((size_t)nchunks + 1) * sizeof **starts)))
+            *units = wpd_chunk_units(first, nchunks, n, cap, *starts);
+        else
+            rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for reading");
+    }
+    wpd_reader_close(r);
+    return rc;
+}
+
+/* Units of each file within records [0, end). Returns 0, or -1 with err
+ * set. */
+static int plan_units(pass_state *s, wpd_error *err)
 {
     const wpd_cloud *c = s->p->cloud;
     s->nfiles = wpd_cloud_nfiles(c);
     s->file_first = malloc((size_t)s->nfiles * sizeof *s->file_first);
     s->file_unit = malloc((size_t)s->nfiles * sizeof *s->file_unit);
+    s->file_starts = calloc((size_t)s->nfiles, sizeof *s->file_starts);
     s->unit_first = malloc(((size_t)s->nfiles + 1) * sizeof *s->unit_first);
-    if (!s->file_first || !s->file_unit || !s->unit_first)
-        return -1;
+    if (!s->file_first || !s->file_unit || !s->file_starts || !s->unit_first)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for reading");
     uint64_t record = 0, units = 0;
     for (int f = 0; f < s->nfiles; f++) {
-        uint64_t n = wpd_cloud_header(c, f)->point_count;
+        const wpd_header *h = wpd_cloud_header(c, f);
+        uint64_t n = h->point_count, varying = 0;
         uint64_t in = record >= s->end ? 0 : s->end - record < n ? s->end - record : n;
         s->file_first[f] = record;
         s->file_unit[f] = file_unit(c, f, s->unit);
         s->unit_first[f] = units;
-        units += (in + s->file_unit[f] - 1) / s->file_unit[f];
+        if (varying_chunk_units(h, in, s->unit, &s->file_starts[f], &varying, err))
+            return -1;
+        units += s->file_starts[f] ? varying : (in + s->file_unit[f] - 1) / s->file_unit[f];
         record += n;
     }
     s->unit_first[s->nfiles] = units;
@@ -262,8 +307,8 @@ static int setup(pass_state *s, wpd_error *err)
         return (s->shared = wpd_cloud_reopen(p->cloud, err)) ? 0 : -1;
     /* One batch holds a unit: every lane's batch has the same capacity. */
     s->unit = s->lanes[0].batch.cap;
-    if (plan_units(s))
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for reading");
+    if (plan_units(s, err))
+        return -1;
     /* Each lane's reader of the first file is opened here, before any
      * point is read: a file that shrinks while it is read then fails as
      * "ends after" in the reads, never in a late lane's header. */
@@ -298,6 +343,9 @@ static void teardown(pass_state *s)
     free(s->file_first);
     free(s->unit_first);
     free(s->file_unit);
+    for (int f = 0; s->file_starts && f < s->nfiles; f++)
+        free(s->file_starts[f]);
+    free(s->file_starts);
 }
 
 int wpd_pass_run(const wpd_pass *p, wpd_error *err)

@@ -6,6 +6,7 @@
 #include "las_files.h"
 
 #include "io/reader.h"
+#include "io/record_cache.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -205,6 +206,44 @@ TEST(laz_seek_ranges)
     check_ranges(failures_, data, "copcvalidator_ellipsoid-1.4", ellipsoid,
                  sizeof ellipsoid / sizeof *ellipsoid);
     check_ranges(failures_, data, "laspy_simple_with_page.copc", copc, sizeof copc / sizeof *copc);
+}
+
+/* Units of whole chunks: small chunks grouped up to the cap, a larger one
+ * alone, cut at n; and a COPC file's table read through the reader: its
+ * units cover every record once and start on chunk starts. */
+TEST(laz_chunk_units)
+{
+    static const uint64_t first[] = {0, 10, 30, 100, 105, 110, 400};
+    uint64_t starts[7];
+    CHECK(wpd_chunk_units(first, 6, 400, 40, starts) == 4);
+    CHECK(starts[0] == 0 && starts[1] == 30 && starts[2] == 100 && starts[3] == 110 &&
+          starts[4] == 400);
+    CHECK(wpd_chunk_units(first, 6, 104, 1000, starts) == 1 && starts[1] == 104);
+    CHECK(wpd_chunk_units(first, 6, 105, 1, starts) == 4 && starts[3] == 100 && starts[4] == 105);
+    CHECK(wpd_chunk_units(first, 6, 0, 40, starts) == 0 && starts[0] == 0);
+    const char *data = test_data_dir();
+    if (!data)
+        return;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/laz/laspy_simple_with_page.copc.laz", data);
+    wpd_error err;
+    wpd_reader *r = wpd_reader_open(path, &err);
+    CHECK_MSG(r, "%s", err.msg);
+    if (!r)
+        return;
+    const uint64_t *table;
+    uint64_t nchunks = wpd_reader_chunks(r, &table), units = 0;
+    CHECK(nchunks == 65 && table[0] == 0 && table[65] == 1065);
+    uint64_t *cut = malloc((nchunks + 1) * sizeof *cut);
+    if (cut)
+        units = wpd_chunk_units(table, nchunks, 1065, 200, cut);
+    CHECK(cut && units > 5 && units < 65 && cut[units] == 1065);
+    for (uint64_t u = 0; cut && u < units; u++) {
+        CHECK(cut[u] == table[wpd_chunk_holding(table, nchunks, cut[u])]);
+        CHECK(cut[u + 1] > cut[u]);
+    }
+    free(cut);
+    wpd_reader_close(r);
 }
 
 /* Positions only (layered: the X Y and Z layers alone) give the twin's
