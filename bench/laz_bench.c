@@ -146,9 +146,10 @@ int main(int argc, char **argv)
         if (s < best)
             best = s;
     }
-    printf("%s: %llu points in %llu unit%s, %d thread%s%s, best of %d: %.4f s, %.2f M points/s\n", argv[1],
-           count, threads > 1 ? units : 1ull, threads > 1 && units > 1 ? "s" : "", threads, threads > 1 ? "s" : "", xyz ? ", positions only" : "", repeat, best,
-           (double)count / best / 1e6);
+    unsigned long long shown = threads > 1 ? units : 1;
+    printf("%s: %llu points in %llu unit%s, %d thread%s%s, best of %d: %.4f s, %.2f M points/s\n",
+           argv[1], count, shown, shown > 1 ? "s" : "", threads, threads > 1 ? "s" : "",
+           xyz ? ", positions only" : "", repeat, best, (double)count / best / 1e6);
     free(starts);
     return 0;
 }
