@@ -186,36 +186,21 @@ static int finish(wpd_run *run, wpd_error *err)
     return 0;
 }
 
-/* The Poisson passes. The greedy pass is sequential, so with one tile in
- * memory, smoothing to come and two threads or more, the tile's surface
- * grid is built alongside it on another thread (the grid does not depend
- * on the threads that build it). Not with --sharp: the labelling that
- * comes first is parallel (in a section it would run on one thread), and
- * builds that grid itself (poisson_pass.c). */
+/* The Poisson passes. With one tile in memory and smoothing to come, the
+ * tile's surface grid is built first, with every thread, and the Poisson
+ * pass runs on it (poisson_pass.c) instead of on a second grid over the
+ * whole cloud. With --sharp the labelling builds it (poisson_pass.c). */
 static int poisson_phase(wpd_run *run, wpd_error *err)
 {
     const wpd_params *p = run->p;
     int surface = run->res->in_memory && p->smooth && p->iterations > 0 && p->keep_on_surface;
-    if (!surface || run->threads < 2 || p->sharp)
-        return wpd_poisson_phase(run, err);
-    int rc = 0, surface_rc = 0;
-    wpd_error surface_err = {0};
-#pragma omp parallel sections num_threads(2)
-    {
-#pragma omp section
-        rc = wpd_poisson_phase(run, err);
-#pragma omp section
-        {
-            const wpd_tile_data *d = &run->tiles.mem;
-            surface_rc = wpd_grid_build_knn(&run->surface, d->xyz, NULL, d->n, p->k,
-                                            run->surface_dk, 1, &surface_err);
-        }
+    if (surface && !p->sharp) {
+        const wpd_tile_data *d = &run->tiles.mem;
+        if (wpd_grid_build_knn(&run->surface, d->xyz, NULL, d->n, p->k, run->surface_dk,
+                               run->threads, err))
+            return -1;
     }
-    if (rc == 0 && surface_rc) {
-        *err = surface_err;
-        rc = -1;
-    }
-    return rc;
+    return wpd_poisson_phase(run, err);
 }
 
 static int run_phases(wpd_run *run, wpd_error *err)

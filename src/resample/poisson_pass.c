@@ -535,9 +535,12 @@ static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
             run->res->sharp_points += pc->memo_edge[i];
     }
     if (!pc->memo) {
+        /* The surface grid, when the run built one over these points. */
         wpd_poisson_input in = {d.xyz, d.gid, pc->memo_edge, NULL, d.n, NULL, 0, pc->r, p->seed,
                                 run->threads};
-        if (!(pc->memo = wpd_poisson_prepare(&in, err)))
+        pc->memo = run->surface.n == d.n && d.n ? wpd_poisson_prepare_on(&in, &run->surface, err)
+                                                : wpd_poisson_prepare(&in, err);
+        if (!pc->memo)
             goto done;
     }
     long m = wpd_poisson_run(pc->memo, pc->r, kept, err);

@@ -296,7 +296,9 @@ static int cmp_u32(const void *a, const void *b)
 struct wpd_poisson {
     wpd_poisson_input in;  /* the candidates (pointers borrowed) */
     int threads;
-    wpd_grid g;            /* cell = the radius it was prepared for */
+    wpd_grid own;          /* the grid built here (cell = the radius it was
+                              prepared for), unless one is borrowed */
+    const wpd_grid *g;     /* &own, or the caller's grid (never rebuilt) */
     uint64_t *prio;        /* [n] per slot */
     uint8_t *band;         /* [n] per slot: band << 2 (the initial state byte) */
     uint8_t *half;         /* [n] per slot: sharp-feature point, or NULL */
@@ -312,14 +314,15 @@ struct wpd_poisson {
     size_t hit_cap;
 };
 
-/* Builds the grid for cell size r and everything that depends on slots. */
+/* Builds the grid for cell size r (unless it is borrowed) and everything
+ * that depends on slots. */
 static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
 {
     const wpd_poisson_input *in = &ps->in;
     size_t n = in->ncand;
-    if (wpd_grid_build(&ps->g, in->xyz, in->cand, n, r, ps->threads, err) < 0)
+    if (ps->g == &ps->own && wpd_grid_build(&ps->own, in->xyz, in->cand, n, r, ps->threads, err) < 0)
         return -1;
-    const wpd_grid *g = &ps->g;
+    const wpd_grid *g = ps->g;
     uint64_t seed = in->seed;
     const uint64_t *gid = in->gid;
     const uint8_t *edge = in->edge, *blind = ps->blind;
@@ -347,8 +350,9 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
     return 0;
 }
 
-static wpd_poisson *prepare(const wpd_poisson_input *in, const uint8_t *blind,
-                            const uint8_t *fixed_edge, const uint8_t *wanted, wpd_error *err)
+static wpd_poisson *prepare(const wpd_poisson_input *in, const wpd_grid *grid,
+                            const uint8_t *blind, const uint8_t *fixed_edge, const uint8_t *wanted,
+                            wpd_error *err)
 {
     if (!(in->r > 0) || !isfinite(in->r)) {
         wpd_fail(err, WPD_E_USAGE, "poisson: radius %g is not positive", in->r);
@@ -359,6 +363,7 @@ static wpd_poisson *prepare(const wpd_poisson_input *in, const uint8_t *blind,
     if (!ps)
         goto oom;
     ps->in = *in;
+    ps->g = grid ? grid : &ps->own;
     ps->blind = blind;
     ps->fixed_edge = fixed_edge;
     ps->wanted = wanted;
@@ -391,19 +396,30 @@ oom:
 
 wpd_poisson *wpd_poisson_prepare(const wpd_poisson_input *in, wpd_error *err)
 {
-    return prepare(in, NULL, NULL, NULL, err);
+    return prepare(in, NULL, NULL, NULL, NULL, err);
+}
+
+wpd_poisson *wpd_poisson_prepare_on(const wpd_poisson_input *in, const wpd_grid *grid,
+                                    wpd_error *err)
+{
+    if (grid->n != in->ncand) {
+        wpd_fail(err, WPD_E_USAGE, "poisson: a grid of %zu points for %zu candidates (a bug)",
+                 grid->n, in->ncand);
+        return NULL;
+    }
+    return prepare(in, grid, NULL, NULL, NULL, err);
 }
 
 wpd_poisson *wpd_poisson_prepare_certain(const wpd_poisson_certain_input *in, wpd_error *err)
 {
-    return prepare(&in->base, in->blind, in->fixed_edge, in->wanted, err);
+    return prepare(&in->base, NULL, in->blind, in->fixed_edge, in->wanted, err);
 }
 
 void wpd_poisson_release(wpd_poisson *ps)
 {
     if (!ps)
         return;
-    wpd_grid_free(&ps->g);
+    wpd_grid_free(&ps->own);
     free(ps->prio);
     free(ps->band);
     free(ps->half);
@@ -418,8 +434,8 @@ void wpd_poisson_release(wpd_poisson *ps)
 size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell)
 {
     if (cell)
-        *cell = ps->g.cell;
-    return ps->g.nruns;
+        *cell = ps->g->cell;
+    return ps->g->nruns;
 }
 
 /* One pass at radius r: two-valued (wpd_poisson_run) unless `certain`, in
@@ -433,10 +449,10 @@ static long run_pass(wpd_poisson *ps, double r, int certain, uint32_t *out, uint
     if (n == 0)
         return 0;
     /* Scans cost most when cells are much smaller or larger than r. */
-    if (r > 1.6 * ps->g.cell || r < 0.6 * ps->g.cell)
+    if (ps->g == &ps->own && (r > 1.6 * ps->own.cell || r < 0.6 * ps->own.cell))
         if (prepare_slots(ps, r, err) < 0)
             return -1;
-    pass_state st = {&ps->g, certain ? ps->kind : ps->half, ps->prio, ps->state, r, ps->stack,
+    pass_state st = {ps->g, certain ? ps->kind : ps->half, ps->prio, ps->state, r, ps->stack,
                      ps->stack_cap, ps->hits, ps->hit_cap, ps->in.edge != NULL};
     memcpy(ps->state, ps->band, n);
     const uint8_t *fixed_edge = ps->fixed_edge; /* NULL but for prepare_certain */
@@ -464,9 +480,9 @@ static long run_pass(wpd_poisson *ps, double r, int certain, uint32_t *out, uint
     for (size_t s = 0; s < n; s++) {
         uint8_t status = ps->state[s] & STATUS_MASK;
         if (status == ACCEPTED)
-            out[kept++] = ps->g.id[s];
+            out[kept++] = ps->g->id[s];
         else if (status == UNKNOWN || (certain && status == UNDECIDED))
-            unknown[unk++] = ps->g.id[s];
+            unknown[unk++] = ps->g->id[s];
     }
     qsort(out, kept, sizeof *out, cmp_u32);
     if (certain) {

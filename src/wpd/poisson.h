@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "common/error.h"
+#include "core/grid.h"
 
 typedef struct wpd_poisson_input {
     const double *xyz;       /* block points, x y z each, block frame */
@@ -49,6 +50,16 @@ typedef struct wpd_poisson wpd_poisson;
 
 /* Returns a context, or NULL with err set. */
 wpd_poisson *wpd_poisson_prepare(const wpd_poisson_input *in, wpd_error *err);
+/* As wpd_poisson_prepare, on a grid the caller built over exactly the
+ * candidates (wpd_grid_build with in->xyz, in->cand and in->ncand), with
+ * any cell: no grid of its own is built, ever. The grid is borrowed for
+ * the life of the context. Cells much smaller than r cost more column
+ * look-ups per scan but scan fewer points than cells of r; the kept set
+ * does not depend on the grid. (An in-memory run shares its surface grid,
+ * built anyway for smoothing, instead of building a second one over the
+ * whole cloud.) */
+wpd_poisson *wpd_poisson_prepare_on(const wpd_poisson_input *in, const wpd_grid *grid,
+                                    wpd_error *err);
 /* One pass at radius r (> 0), as wpd_poisson_pass. */
 long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err);
 /* Occupied cells of the context's grid and (if cell is not NULL) its cell

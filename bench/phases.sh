@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Per-phase medians of two builds, interleaved: the phase times that
+# `wpd resample -v` prints, and the whole command's wall and CPU time,
+# for ./wpd and for WPD_BENCH_BASE (another build), each run right after
+# the other so both see the same machine. Prints one row per measure:
+# medians of this build and of the base, and their ratio (this / base).
+# usage: WPD_BENCH_BASE=/path/to/wpd bench/phases.sh RUNS RESAMPLE-ARGS...
+# e.g.   WPD_BENCH_BASE=/tmp/wpd_base bench/phases.sh 7 \
+#            ../shared/data/scans/nc_raleigh_lidar_2269213.las -n 10000 --threads 2
+set -euo pipefail
+cd "$(dirname "$0")/.."
+base=${WPD_BENCH_BASE:?set WPD_BENCH_BASE to the build to compare with}
+runs=$1; shift
+out=bench/out/phases
+mkdir -p "$out"
+one() { # BIN TAG ARGS...: one run; its phase line and CPU times go to TAG's log
+    local bin=$1 tag=$2; shift 2
+    /usr/bin/time -f "process wall %e cpu %U %S" "$bin" resample "$@" -o "$out/$tag.las" \
+        --force -v 2>&1 | grep -E "^  time:|^process" >>"$out/$tag.log"
+}
+rm -f "$out"/{new,base}.log
+for _ in $(seq "$runs"); do
+    one ./wpd new "$@"
+    one "$base" base "$@"
+    cmp -s "$out/new.las" "$out/base.las" || echo "phases.sh: the two builds wrote different bytes" >&2
+done
+/usr/bin/python3 - "$out/new.log" "$out/base.log" <<'PY'
+import re, statistics, sys
+def load(path):
+    rows = {}
+    for line in open(path):
+        if line.startswith("process"):
+            w, u, s = map(float, re.findall(r"[\d.]+", line))
+            for k, v in (("wall", w), ("cpu", u + s), ("sys", s)):
+                rows.setdefault("process " + k, []).append(v)
+        else:
+            for name, v in re.findall(r"([a-z][a-z ]*?) ([\d.]+)(?: s)?(?:,|$| \()", line.split(":", 1)[1]):
+                rows.setdefault(name.strip(), []).append(float(v))
+    return rows
+new, base = load(sys.argv[1]), load(sys.argv[2])
+print("%-18s %9s %9s %7s" % ("measure", "this", "base", "ratio"))
+for k in new:
+    a, b = statistics.median(new[k]), statistics.median(base.get(k, [float("nan")]))
+    print("%-18s %9.3f %9.3f %7.3f" % (k, a, b, a / b if b else float("nan")))
+PY
