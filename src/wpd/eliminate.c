@@ -200,7 +200,8 @@ static double inner_margin(const wpd_grid *g, const int64_t c[3], const double *
         int ax = g->axis[k];
         double lo = g->origin[ax] + (double)(c[k] - 1) * g->cell;
         double hi = g->origin[ax] + (double)(c[k] + 2) * g->cell;
-        margin = fmin(margin, fmin(p[ax] - lo, hi - p[ax]));
+        double in = p[ax] - lo < hi - p[ax] ? p[ax] - lo : hi - p[ax]; /* fmin: a call */
+        margin = in < margin ? in : margin;
     }
     return margin;
 }

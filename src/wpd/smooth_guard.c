@@ -133,6 +133,43 @@ static int group_candidates(const wpd_grid *samples, const double lo[3], const d
     return nc;
 }
 
+/* A group's candidates side by side, one array per coordinate, padded to
+ * whole lane groups with samples at infinity (the ids as doubles, exact:
+ * the lanes compare them with the distances). */
+enum { OWNER_LANES = 4 };
+typedef struct group_cands {
+    int n;  /* candidates, then padding up to a multiple of OWNER_LANES */
+    double x[GROUP_CANDIDATES + OWNER_LANES], y[GROUP_CANDIDATES + OWNER_LANES],
+        z[GROUP_CANDIDATES + OWNER_LANES], id[GROUP_CANDIDATES + OWNER_LANES];
+} group_cands;
+
+/* The candidate nearest to x by (squared distance, index) into *d2 and
+ * *id: INFINITY and UINT32_MAX without one. Each lane keeps its own best
+ * and the lanes are merged at the end, all without branches: the
+ * candidates come in no useful order, and a compare-and-branch loop
+ * mispredicted often. */
+static void nearest_of_group(const group_cands *c, const double *x, double *d2, uint32_t *id)
+{
+    double bd[OWNER_LANES], bi[OWNER_LANES];
+    for (int k = 0; k < OWNER_LANES; k++)
+        bd[k] = INFINITY, bi[k] = (double)UINT32_MAX;
+    for (int j = 0; j < c->n; j += OWNER_LANES) {
+#pragma omp simd
+        for (int k = 0; k < OWNER_LANES; k++) {
+            double dx = c->x[j + k] - x[0], dy = c->y[j + k] - x[1], dz = c->z[j + k] - x[2];
+            double d = dx * dx + dy * dy + dz * dz, i = c->id[j + k];
+            int take = (d < bd[k]) | ((d == bd[k]) & (i < bi[k]));
+            bd[k] = take ? d : bd[k];
+            bi[k] = take ? i : bi[k];
+        }
+    }
+    for (int k = 1; k < OWNER_LANES; k++)
+        if (bd[k] < bd[0] || (bd[k] == bd[0] && bi[k] < bi[0]))
+            bd[0] = bd[k], bi[0] = bi[k];
+    *d2 = bd[0];
+    *id = (uint32_t)bi[0];
+}
+
 /* Owners and bounds of the input points in slots b..e-1, inside [lo, hi].
  * The points share their candidates, gathered once and copied side by side
  * (a point with no candidate within tau, in a hole, asks the grid). */
@@ -140,26 +177,21 @@ static void owners_of_group(const wpd_grid *samples, const wpd_grid *surface, ui
                             uint32_t e, const double lo[3], const double hi[3], double tau,
                             uint32_t *owner, float *bound)
 {
-    uint32_t cand[GROUP_CANDIDATES], cid[GROUP_CANDIDATES];
-    double cxyz[3 * GROUP_CANDIDATES];
+    uint32_t cand[GROUP_CANDIDATES];
+    group_cands c;
     int nc = group_candidates(samples, lo, hi, tau, cand);
-    for (int j = 0; j < nc; j++) {
-        memcpy(cxyz + 3 * j, samples->xyz + 3 * (size_t)cand[j], 3 * sizeof *cxyz);
-        cid[j] = samples->id[cand[j]];
+    for (c.n = 0; c.n < nc; c.n++) {
+        const double *q = samples->xyz + 3 * (size_t)cand[c.n];
+        c.x[c.n] = q[0], c.y[c.n] = q[1], c.z[c.n] = q[2];
+        c.id[c.n] = samples->id[cand[c.n]];
     }
+    for (; c.n % OWNER_LANES; c.n++)
+        c.x[c.n] = c.y[c.n] = c.z[c.n] = INFINITY, c.id[c.n] = (double)UINT32_MAX;
     for (uint32_t s = b; s < e; s++) {
         const double *x = surface->xyz + 3 * (size_t)s;
-        double best = INFINITY;
-        uint32_t id = UINT32_MAX;
-        for (int j = 0; j < nc; j++) {
-            const double *y = cxyz + 3 * j;
-            double dx = y[0] - x[0], dy = y[1] - x[1], dz = y[2] - x[2];
-            double d2 = dx * dx + dy * dy + dz * dz;
-            if (d2 < best || (d2 == best && cid[j] < id)) {
-                best = d2;
-                id = cid[j];
-            }
-        }
+        double best;
+        uint32_t id;
+        nearest_of_group(&c, x, &best, &id);
         set_owner(samples, x, tau, best, id, owner + s, bound + s);
     }
 }
@@ -178,10 +210,10 @@ static void owners_of_block(const wpd_grid *samples, const wpd_grid *surface, ui
         for (; t < e && t - b < GROUP_POINTS; t++) {
             const double *y = surface->xyz + 3 * (size_t)t;
             double l[3], h[3], extent = 0;
-            for (int a = 0; a < 3; a++) {
-                l[a] = fmin(lo[a], y[a]);
-                h[a] = fmax(hi[a], y[a]);
-                extent = fmax(extent, h[a] - l[a]);
+            for (int a = 0; a < 3; a++) { /* not fmin and fmax: calls, here */
+                l[a] = y[a] < lo[a] ? y[a] : lo[a];
+                h[a] = y[a] > hi[a] ? y[a] : hi[a];
+                extent = h[a] - l[a] > extent ? h[a] - l[a] : extent;
             }
             if (extent > 0.5 * tau)
                 break;
