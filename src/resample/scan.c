@@ -74,7 +74,8 @@ static counter *counters_new(wpd_cloud *cloud, const wpd_scan *scan, size_t voxe
         wpd_bounds_reset(&c[t].box);
         ok = (c[t].file_count = calloc((size_t)wpd_cloud_nfiles(cloud), sizeof(uint64_t))) != NULL;
         if (ok && scan)
-            ok = wpd_ladder_init(&c[t].ladder, scan->extent, scan->count, voxel_cap) == 0 &&
+            ok = wpd_ladder_init(&c[t].ladder, scan->extent, scan->count, voxel_cap,
+                                 scan->wanted_voxels) == 0 &&
                  (c[t].density = calloc(cells, sizeof *c[t].density)) &&
                  (!paper_cells(scan) || (c[t].paper = calloc(paper_cells(scan) / 8 + 1, 1)));
     }
@@ -209,7 +210,7 @@ static int combine(wpd_scan *s, counter *c, int threads, size_t cells)
             b |= c[t].paper[i];
         s->paper_voxels += (uint64_t)__builtin_popcount(b);
     }
-    return wpd_ladder_finish(&c[0].ladder, s->edge, s->voxels, &s->nscales);
+    return wpd_ladder_finish(&c[0].ladder, s->edge, s->voxels, &s->nscales, &s->nestimated);
 }
 
 /* Pass 2 in the frame of s; also the actual box and points per file. */
@@ -218,9 +219,11 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
 {
     init_grid(s);
     size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
-    /* A lane's own: its ladder (up to 32 bytes a key while coarsening),
-     * density grid, batch and cloud. */
-    size_t per_thread = 32 * voxel_cap + cells * sizeof *s->density + wpd_pass_lane_bytes(cloud);
+    /* A lane's own: its ladder (two sets, each up to 32 bytes a key while
+     * coarsening), density grid, batch and cloud. */
+    size_t sets = wpd_ladder_samples(voxel_cap, s->wanted_voxels) ? 2 : 1;
+    size_t per_thread =
+        sets * 32 * voxel_cap + cells * sizeof *s->density + wpd_pass_lane_bytes(cloud);
     threads = wpd_threads_within(threads, room, per_thread);
     free(s->density);
     s->density = calloc(cells, sizeof *s->density);
@@ -236,10 +239,12 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
     return rc;
 }
 
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double paper_frac, int threads,
-                 size_t room, wpd_progress *progress, wpd_scan *out, wpd_error *err)
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, double paper_frac,
+                 int threads, size_t room, wpd_progress *progress, wpd_scan *out,
+                 wpd_error *err)
 {
     memset(out, 0, sizeof *out);
+    out->wanted_voxels = wanted_voxels;
     out->paper_frac = paper_frac;
     threads = threads < 1 ? 1 : threads;
     out->nfiles = wpd_cloud_nfiles(cloud);

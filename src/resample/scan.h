@@ -36,7 +36,10 @@ typedef struct wpd_scan {
     double origin[3];                 /* frame origin: minimum corner of the box
                                          (the declared one when tight) */
     double extent[3];                 /* box size */
+    double wanted_voxels;             /* as given to wpd_scan_run */
     int nscales;
+    int nestimated;                   /* the first nestimated scales: estimated from a
+                                         sample (wpd/ladder.h), the others exact */
     double edge[WPD_MAX_SCALES];      /* voxel edges, finest first, doubling */
     uint64_t voxels[WPD_MAX_SCALES];  /* occupied voxels at each edge */
     int dim[3];                       /* density grid cells per axis */
@@ -53,12 +56,15 @@ typedef struct wpd_scan {
  * bytes beside the first thread's working set (wpd_threads_within, budget.h).
  * paper_frac: the paper's voxel edge over the longest side, or 0 when the
  * paper's estimate is not wanted (its count costs a bitmap write a point).
- * voxel_cap: the most voxel keys a thread's ladder holds at once (memory:
- * ~32 bytes each). Returns 0, or -1 with err set (read errors; WPD_E_INPUT
+ * voxel_cap: the most voxel keys each of a thread's two ladder sets holds
+ * at once (memory: ~32 bytes each); wanted_voxels: about how many voxels
+ * the radius will occupy (the target over the density), which decides
+ * whether the sampled finer scales are counted (wpd_ladder_init). Returns 0, or -1 with err set (read errors; WPD_E_INPUT
  * when there is no finite point). progress (may be NULL) gets phases
  * "bounds" (when it runs) and "scan". */
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double paper_frac, int threads,
-                 size_t room, wpd_progress *progress, wpd_scan *out, wpd_error *err);
+int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, double paper_frac,
+                 int threads, size_t room, wpd_progress *progress, wpd_scan *out,
+                 wpd_error *err);
 
 /* Density grid cell of frame point p (clamped into the grid). Inline: the
  * scan and the tiler ask it for every point. */

@@ -4,13 +4,27 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/hash.h"
+
 /* Keys pack 21 bits per axis of voxel indices relative to the origin. */
 enum { KEY_BITS = 21 };
 #define KEY_MASK ((1ull << KEY_BITS) - 1)
 
+/* The sample ladder's first edge and the sampling blocks' edge, against
+ * the exact ladder's first edge; one block in SAMPLE_SHARE is sampled. */
+#define SAMPLE_FINER 4
+#define BLOCK_COARSER 4
+#define SAMPLE_SHARE 16
+
 static uint64_t pack(uint64_t ix, uint64_t iy, uint64_t iz)
 {
     return ix | iy << KEY_BITS | iz << (2 * KEY_BITS);
+}
+
+static uint64_t key_of(const double p[3], double inv)
+{
+    return pack((uint64_t)(p[0] * inv) & KEY_MASK, (uint64_t)(p[1] * inv) & KEY_MASK,
+                (uint64_t)(p[2] * inv) & KEY_MASK);
 }
 
 /* The key of the voxel twice as large that contains voxel key. */
@@ -39,64 +53,54 @@ static int coarsen(wpd_voxel_set *set)
     return 0;
 }
 
-/* One scale coarser: every key and the edge. */
-static int coarsen_ladder(wpd_ladder *l)
+static int scale_init(wpd_ladder_scale *s, double edge)
 {
-    if (coarsen(&l->set))
+    s->edge = edge;
+    s->inv = 1.0 / edge;
+    s->level = 0;
+    s->last = WPD_VOXEL_KEY_EMPTY;
+    return wpd_voxel_set_init(&s->set, 4096);
+}
+
+/* One scale coarser: every key and the edge. */
+static int coarsen_scale(wpd_ladder_scale *s)
+{
+    if (coarsen(&s->set))
         return -1;
-    l->edge *= 2;
-    l->inv = 1.0 / l->edge;
-    l->level++;
-    l->last = WPD_VOXEL_KEY_EMPTY;
+    s->edge *= 2;
+    s->inv = 1.0 / s->edge;
+    s->level++;
+    s->last = WPD_VOXEL_KEY_EMPTY;
     return 0;
 }
 
 /* Coarsens until the keys fit the cap. */
-static int fit_cap(wpd_ladder *l)
+static int fit_cap(wpd_ladder_scale *s, size_t cap)
 {
-    while (l->set.count > l->cap)
-        if (coarsen_ladder(l))
+    while (s->set.count > cap)
+        if (coarsen_scale(s))
             return -1;
     return 0;
 }
 
-int wpd_ladder_init(wpd_ladder *l, const double extent[3], uint64_t npoints, size_t cap)
+static int scale_put(wpd_ladder_scale *s, const double p[3], size_t cap)
 {
-    memset(l, 0, sizeof *l);
-    l->cap = cap < 1024 ? 1024 : cap;
-    l->last = WPD_VOXEL_KEY_EMPTY;
-    /* Starting finer than needed only costs cache misses (2^16 voxels along
-     * the NC Raleigh scan cost 1.3 s); never finer than 2^16 along the
-     * longest axis, so indices fit their 21 bits. */
-    double longest = fmax(extent[0], fmax(extent[1], extent[2]));
-    double face = fmax(extent[0] * extent[1], fmax(extent[0] * extent[2], extent[1] * extent[2]));
-    double keys = fmin((double)l->cap / 2, (double)npoints);
-    l->edge = fmax(longest / 65536.0, sqrt(face / fmax(keys, 1)));
-    if (!(l->edge > 0))
-        l->edge = 1.0;
-    l->inv = 1.0 / l->edge;
-    return wpd_voxel_set_init(&l->set, 4096);
-}
-
-int wpd_ladder_put(wpd_ladder *l, const double p[3])
-{
-    uint64_t key = pack((uint64_t)(p[0] * l->inv) & KEY_MASK, (uint64_t)(p[1] * l->inv) & KEY_MASK,
-                        (uint64_t)(p[2] * l->inv) & KEY_MASK);
-    if (key == l->last)
+    uint64_t key = key_of(p, s->inv);
+    if (key == s->last)
         return 0;
-    l->last = key;
-    if (wpd_voxel_set_put(&l->set, key))
+    s->last = key;
+    if (wpd_voxel_set_put(&s->set, key))
         return -1;
-    return fit_cap(l);
+    return fit_cap(s, cap);
 }
 
-int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from)
+static int scale_merge(wpd_ladder_scale *into, wpd_ladder_scale *from, size_t cap)
 {
     while (into->level < from->level)
-        if (coarsen_ladder(into))
+        if (coarsen_scale(into))
             return -1;
     while (from->level < into->level)
-        if (coarsen_ladder(from))
+        if (coarsen_scale(from))
             return -1;
     for (size_t i = 0; i < from->set.cap; i++) {
         uint64_t key = from->set.slot[i];
@@ -105,31 +109,115 @@ int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from)
         /* into may have coarsened during the merge: bring key along */
         for (int d = from->level; d < into->level; d++)
             key = coarser(key);
-        if (wpd_voxel_set_put(&into->set, key) || fit_cap(into))
+        if (wpd_voxel_set_put(&into->set, key) || fit_cap(into, cap))
             return -1;
     }
     into->last = WPD_VOXEL_KEY_EMPTY;
     return 0;
 }
 
-int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales)
+/* Counts of s at its edge, then twice, four times ... (at most max, and
+ * down to one voxel); consumes the set. Returns how many, or -1 (memory). */
+static int scale_counts(wpd_ladder_scale *s, double *edge, uint64_t *m, int max)
 {
-    *nscales = 0;
-    double e = l->edge;
-    while (*nscales < WPD_MAX_SCALES) {
-        edge[*nscales] = e;
-        m[*nscales] = l->set.count;
-        (*nscales)++;
-        if (l->set.count <= 1)
+    int n = 0;
+    double e = s->edge;
+    while (n < max) {
+        edge[n] = e;
+        m[n++] = s->set.count;
+        if (s->set.count <= 1)
             break;
-        if (coarsen(&l->set))
+        if (coarsen(&s->set))
             return -1;
         e *= 2;
     }
+    return n;
+}
+
+int wpd_ladder_init(wpd_ladder *l, const double extent[3], uint64_t npoints, size_t cap,
+                    double wanted)
+{
+    memset(l, 0, sizeof *l);
+    l->cap = cap < 1024 ? 1024 : cap;
+    /* Starting finer than needed only costs cache misses (2^16 voxels along
+     * the NC Raleigh scan cost 1.3 s); never finer than 2^16 along the
+     * longest axis, so indices fit their 21 bits (the sample's 2^18). */
+    double longest = fmax(extent[0], fmax(extent[1], extent[2]));
+    double face = fmax(extent[0] * extent[1], fmax(extent[0] * extent[2], extent[1] * extent[2]));
+    double keys = fmin((double)l->cap / 2, (double)npoints);
+    double edge = fmax(longest / 65536.0, sqrt(face / fmax(keys, 1)));
+    if (!(edge > 0))
+        edge = 1.0;
+    l->block_inv = 1.0 / (edge * BLOCK_COARSER);
+    l->last_block = WPD_VOXEL_KEY_EMPTY;
+    l->sampling = wpd_ladder_samples(cap, wanted);
+    if (scale_init(&l->all, edge) ||
+        (l->sampling && scale_init(&l->sample, edge / SAMPLE_FINER))) {
+        wpd_ladder_free(l);
+        return -1;
+    }
+    return 0;
+}
+
+/* Whether p lies in a sampled block (blocks nest the voxels of both sets:
+ * every edge is the first one times a power of two). */
+static int sampled(wpd_ladder *l, const double p[3])
+{
+    uint64_t block = key_of(p, l->block_inv);
+    if (block != l->last_block) {
+        l->last_block = block;
+        l->last_sampled = wpd_mix64(block) % SAMPLE_SHARE == 0;
+    }
+    return l->last_sampled;
+}
+
+int wpd_ladder_put(wpd_ladder *l, const double p[3])
+{
+    if (scale_put(&l->all, p, l->cap))
+        return -1;
+    return l->sampling && sampled(l, p) ? scale_put(&l->sample, p, l->cap) : 0;
+}
+
+int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from)
+{
+    into->last_block = WPD_VOXEL_KEY_EMPTY;
+    return scale_merge(&into->all, &from->all, into->cap) ||
+                   (into->sampling && scale_merge(&into->sample, &from->sample, into->cap))
+               ? -1
+               : 0;
+}
+
+int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales, int *nestimated)
+{
+    double se[WPD_MAX_SCALES];
+    uint64_t sm[WPD_MAX_SCALES];
+    *nscales = *nestimated = 0;
+    int ns = l->sampling ? scale_counts(&l->sample, se, sm, WPD_MAX_SCALES) : 0;
+    if (ns < 0)
+        return -1;
+    /* The sample's scale equal to the finest exact one (edges double
+     * exactly from first edges a power of two apart). */
+    int at = 0;
+    while (at < ns && se[at] < l->all.edge)
+        at++;
+    int room = 0;
+    if (at < ns && se[at] == l->all.edge && sm[at] >= WPD_LADDER_SAMPLE_MIN)
+        room = at < WPD_MAX_SCALES / 4 ? at : WPD_MAX_SCALES / 4;
+    int nall = scale_counts(&l->all, edge + room, m + room, WPD_MAX_SCALES - room);
+    if (nall < 0)
+        return -1;
+    double ratio = room ? (double)m[room] / (double)sm[at] : 0;
+    for (int i = 0; i < room; i++) {
+        edge[i] = se[at - room + i];
+        m[i] = (uint64_t)llround((double)sm[at - room + i] * ratio);
+    }
+    *nscales = room + nall;
+    *nestimated = room;
     return 0;
 }
 
 void wpd_ladder_free(wpd_ladder *l)
 {
-    wpd_voxel_set_free(&l->set);
+    wpd_voxel_set_free(&l->all.set);
+    wpd_voxel_set_free(&l->sample.set);
 }

@@ -697,27 +697,72 @@ TEST(ladder_merge_equals_one_stream)
         xyz[i] = (double)(s >> 11) / (double)(1ull << 53) * (i % 3 == 2 ? 5.0 : 100.0);
     }
     const double extent[3] = {100, 100, 5};
+    const double wanted = 1e9; /* with the sample ladder */
     double e1[WPD_MAX_SCALES], e2[WPD_MAX_SCALES];
     uint64_t m1[WPD_MAX_SCALES], m2[WPD_MAX_SCALES];
-    int n1 = 0, n2 = 0;
+    int n1 = 0, n2 = 0, k1 = 0, k2 = 0;
     wpd_ladder one, a, b;
-    CHECK(wpd_ladder_init(&one, extent, N, CAP) == 0);
+    CHECK(wpd_ladder_init(&one, extent, N, CAP, wanted) == 0);
     for (int i = 0; i < N; i++)
         CHECK(wpd_ladder_put(&one, xyz + 3 * i) == 0);
-    CHECK(wpd_ladder_finish(&one, e1, m1, &n1) == 0);
+    CHECK(wpd_ladder_finish(&one, e1, m1, &n1, &k1) == 0);
     /* a: a tenth of the points, one level; b: the rest, coarser */
-    CHECK(wpd_ladder_init(&a, extent, N, CAP) == 0 && wpd_ladder_init(&b, extent, N, CAP) == 0);
+    CHECK(wpd_ladder_init(&a, extent, N, CAP, wanted) == 0 && wpd_ladder_init(&b, extent, N, CAP, wanted) == 0);
     for (int i = 0; i < N; i++)
         CHECK(wpd_ladder_put(i < N / 10 ? &a : &b, xyz + 3 * i) == 0);
-    CHECK_MSG(a.level < b.level, "levels %d %d", a.level, b.level);
+    CHECK_MSG(a.all.level < b.all.level, "levels %d %d", a.all.level, b.all.level);
     CHECK(wpd_ladder_merge(&a, &b) == 0);
-    CHECK(wpd_ladder_finish(&a, e2, m2, &n2) == 0);
-    CHECK_MSG(n1 == n2, "scales %d vs %d", n1, n2);
+    CHECK(wpd_ladder_finish(&a, e2, m2, &n2, &k2) == 0);
+    CHECK_MSG(n1 == n2 && k1 == k2, "scales %d (%d estimated) vs %d (%d)", n1, k1, n2, k2);
     for (int i = 0; i < n1 && i < n2; i++)
         CHECK_MSG(e1[i] == e2[i] && m1[i] == m2[i], "scale %d: %g %llu vs %g %llu", i, e1[i],
                   (unsigned long long)m1[i], e2[i], (unsigned long long)m2[i]);
     wpd_ladder_free(&one);
     wpd_ladder_free(&a);
     wpd_ladder_free(&b);
+    free(xyz);
+}
+
+/* The scales finer than the exact ladder's, estimated from the sampled
+ * blocks, agree with exact counts on a surface; a target the exact scales
+ * can hold gets no estimate, and the exact counts are the same either way. */
+TEST(ladder_sample_estimates_fine_scales)
+{
+    enum { N = 2000000, CAP = 1 << 16 };
+    double *xyz = malloc(3 * (size_t)N * sizeof *xyz);
+    uint64_t s = 11;
+    for (size_t i = 0; i < N; i++) {
+        double u[2];
+        for (int k = 0; k < 2; k++) {
+            s = s * 6364136223846793005ull + 1442695040888963407ull;
+            u[k] = (double)(s >> 11) / (double)(1ull << 53) * 400.0;
+        }
+        xyz[3 * i] = u[0], xyz[3 * i + 1] = u[1];
+        xyz[3 * i + 2] = 20 + 10 * sin(u[0] / 60) * cos(u[1] / 45); /* a rolling surface */
+    }
+    const double extent[3] = {400, 400, 40};
+    double e[2][WPD_MAX_SCALES];
+    uint64_t m[2][WPD_MAX_SCALES];
+    int n[2], k[2];
+    for (int run = 0; run < 2; run++) {
+        wpd_ladder l;
+        CHECK(wpd_ladder_init(&l, extent, N, CAP, run ? 1e9 : 1000) == 0);
+        for (size_t i = 0; i < N; i++)
+            CHECK(wpd_ladder_put(&l, xyz + 3 * i) == 0);
+        CHECK(wpd_ladder_finish(&l, e[run], m[run], &n[run], &k[run]) == 0);
+        wpd_ladder_free(&l);
+    }
+    CHECK_MSG(k[0] == 0 && k[1] == 2, "estimated scales %d and %d", k[0], k[1]);
+    CHECK(n[1] == n[0] + k[1]);
+    for (int i = 0; i < n[0] && n[1] == n[0] + k[1]; i++)
+        CHECK(e[0][i] == e[1][i + k[1]] && m[0][i] == m[1][i + k[1]]);
+    for (int i = 0; i < k[1]; i++) {
+        uint64_t exact = 0;
+        wpd_error err = {0};
+        CHECK(wpd_voxel_counts(xyz, N, &e[1][i], 1, &exact, 2, &err) == 0);
+        double rel = (double)m[1][i] / (double)exact - 1;
+        CHECK_MSG(fabs(rel) < 0.05, "edge %g: estimate %llu, exact %llu", e[1][i],
+                  (unsigned long long)m[1][i], (unsigned long long)exact);
+    }
     free(xyz);
 }
