@@ -72,8 +72,21 @@ static int scan_box(const wpd_grid *g, const double q[3], double rho, knn_heap *
     for (int k = 0; k < 3; k++)
         if (lo[k] > 0 || hi[k] < g->dim[g->axis[k]] - 1)
             all = 0;
+    /* The column of q first: its points are the nearest, so the bound is
+     * tight early and fewer farther points get offered (the k best by
+     * distance and index do not depend on the order of the offers). */
+    int64_t ca = wpd_grid_coord(g, g->axis[0], q[g->axis[0]]);
+    int64_t cb = wpd_grid_coord(g, g->axis[1], q[g->axis[1]]);
+    int centre = ca >= lo[0] && ca <= hi[0] && cb >= lo[1] && cb <= hi[1];
+    if (centre) {
+        uint32_t sb, se;
+        wpd_grid_column_slots(g, ca, cb, lo[2], hi[2], &sb, &se);
+        scan_slots(g, q, sb, se, h);
+    }
     for (int64_t b = lo[1]; b <= hi[1]; b++)
         for (int64_t a = lo[0]; a <= hi[0]; a++) {
+            if (centre && a == ca && b == cb)
+                continue;
             uint32_t sb, se;
             wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
             scan_slots(g, q, sb, se, h);
