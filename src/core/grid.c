@@ -221,7 +221,7 @@ int wpd_grid_build(wpd_grid *g, const double *xyz, const uint32_t *subset,
         g->id[i] = (uint32_t)src;
     }
     if (bits > 0)
-        wpd_radix_sort_u64(key, g->id, n, bits, tmp_key, tmp_id);
+        wpd_radix_sort_u64_threads(key, g->id, n, bits, tmp_key, tmp_id, threads);
 
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (size_t s = 0; s < n; s++)

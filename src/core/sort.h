@@ -16,6 +16,15 @@
 void wpd_radix_sort_u64(uint64_t *key, uint32_t *val, size_t n, int bits,
                         uint64_t *tmp_key, uint32_t *tmp_val);
 
+/* The same sort, the same result, on up to `threads` threads (each counts
+ * and scatters its own share of every pass; the shares are placed in
+ * order, so the sort stays stable). Sequential below WPD_SORT_PARALLEL_MIN
+ * pairs, for threads <= 1, or when the counters cannot be allocated. Not
+ * from inside a parallel region (it would run on one thread). */
+#define WPD_SORT_PARALLEL_MIN ((size_t)1 << 17)
+void wpd_radix_sort_u64_threads(uint64_t *key, uint32_t *val, size_t n, int bits,
+                                uint64_t *tmp_key, uint32_t *tmp_val, int threads);
+
 /* The first index i of a[0..n-1] (ascending) with a[i] >= key; n if none. */
 static inline size_t wpd_lower_bound_u64(const uint64_t *a, size_t n, uint64_t key)
 {

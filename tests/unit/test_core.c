@@ -90,6 +90,29 @@ TEST(core_radix_sort_orders_pairs_stably)
     free(k1); free(tk); free(v1); free(tv);
 }
 
+/* The threaded sort gives the sequential sort's pairs, for 1-4 threads and
+ * odd and even numbers of passes (the result comes back from the scratch). */
+TEST(core_radix_sort_threads_same_as_sequential)
+{
+    size_t n = WPD_SORT_PARALLEL_MIN + 12345;
+    uint64_t *k1 = malloc(n * 8), *k2 = malloc(n * 8), *tk = malloc(n * 8);
+    uint32_t *v1 = malloc(n * 4), *v2 = malloc(n * 4), *tv = malloc(n * 4);
+    for (int bits = 20; bits <= 34; bits += 14)
+        for (int threads = 1; threads <= 4; threads++) {
+            for (size_t i = 0; i < n; i++) {
+                k1[i] = k2[i] = (wpd_mix64(i) >> (64 - bits)) & (i % 3 ? ~(uint64_t)0 : ~(uint64_t)1);
+                v1[i] = v2[i] = (uint32_t)i;
+            }
+            wpd_radix_sort_u64(k1, v1, n, bits, tk, tv);
+            wpd_radix_sort_u64_threads(k2, v2, n, bits, tk, tv, threads);
+            size_t diff = 0;
+            for (size_t i = 0; i < n; i++)
+                diff += k1[i] != k2[i] || v1[i] != v2[i];
+            CHECK_MSG(diff == 0, "%zu pairs differ (%d bits, %d threads)", diff, bits, threads);
+        }
+    free(k1); free(k2); free(tk); free(v1); free(v2); free(tv);
+}
+
 TEST(core_grid_holds_every_point_once_in_its_cell)
 {
     size_t n = 4000;
