@@ -22,7 +22,7 @@ echo
 for n in 10000 100000; do
     for t in 2 1; do
         args=(resample "$src" -o "$out/nc_$n.las" -n "$n" --threads "$t" --force -q)
-        limit=$([ "$n" = 10000 ] && echo 0.6 || echo 1.4)
+        limit=$([ "$n" = 10000 ] && echo 0.6 || echo 1.3)
         limit=$([ "$t" = 2 ] && echo "$limit" || echo -)
         if [ -z "$base" ]; then
             s=$(median_seconds 5 ./wpd "${args[@]}")
