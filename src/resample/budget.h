@@ -3,7 +3,8 @@
  *
  * A run is given a memory budget (--mem). Before any work it is split into:
  *   fixed      48 MB: one thread's voxel ladder and batches, the plan, the
- *              runtime;
+ *              runtime (a large target's sampled ladder set, up to 32 MB
+ *              more, comes out of the room of the scan's other lanes);
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
  *   samples    nothing over all samples: a tiled run keeps them in
  *              files (the sample store, the exact count's fields, the

@@ -45,8 +45,8 @@ typedef struct wpd_run {
     double halo;              /* halo width */
     double surface_dk;        /* cell of the input-surface grids: about the input's
                                  k-th neighbour distance */
-    wpd_grid surface;         /* one in-memory tile: its surface grid, built beside
-                                 the Poisson passes (empty otherwise) */
+    wpd_grid surface;         /* one in-memory tile: its surface grid, built before
+                                 the Poisson passes, which run on it (empty otherwise) */
     wpd_resample_result *res;
 } wpd_run;
 

@@ -224,6 +224,10 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
     size_t sets = wpd_ladder_samples(voxel_cap, s->wanted_voxels) ? 2 : 1;
     size_t per_thread =
         sets * 32 * voxel_cap + cells * sizeof *s->density + wpd_pass_lane_bytes(cloud);
+    /* The budget's fixed share holds the first lane's exact set; its
+     * sampled set comes out of the room of the others. */
+    size_t first_extra = (sets - 1) * 32 * voxel_cap;
+    room = room > first_extra ? room - first_extra : 0;
     threads = wpd_threads_within(threads, room, per_thread);
     free(s->density);
     s->density = calloc(cells, sizeof *s->density);

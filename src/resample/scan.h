@@ -59,8 +59,9 @@ typedef struct wpd_scan {
  * voxel_cap: the most voxel keys each of a thread's two ladder sets holds
  * at once (memory: ~32 bytes each); wanted_voxels: about how many voxels
  * the radius will occupy (the target over the density), which decides
- * whether the sampled finer scales are counted (wpd_ladder_init). Returns 0, or -1 with err set (read errors; WPD_E_INPUT
- * when there is no finite point). progress (may be NULL) gets phases
+ * whether the sampled finer scales are counted (wpd_ladder_init).
+ * Returns 0, or -1 with err set (read errors; WPD_E_INPUT when there is no
+ * finite point). progress (may be NULL) gets phases
  * "bounds" (when it runs) and "scan". */
 int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, double paper_frac,
                  int threads, size_t room, wpd_progress *progress, wpd_scan *out,

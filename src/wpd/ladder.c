@@ -11,9 +11,12 @@ enum { KEY_BITS = 21 };
 #define KEY_MASK ((1ull << KEY_BITS) - 1)
 
 /* The sample ladder's first edge and the sampling blocks' edge, against
- * the exact ladder's first edge; one block in SAMPLE_SHARE is sampled. */
+ * the exact ladder's first edge; one block in SAMPLE_SHARE is sampled.
+ * BLOCK_LEVELS: log2(BLOCK_COARSER), the coarsenings of the exact ladder
+ * after which its voxels no longer nest in blocks. */
 #define SAMPLE_FINER 4
 #define BLOCK_COARSER 4
+#define BLOCK_LEVELS 2
 #define SAMPLE_SHARE 16
 
 static uint64_t pack(uint64_t ix, uint64_t iy, uint64_t iz)
@@ -159,8 +162,9 @@ int wpd_ladder_init(wpd_ladder *l, const double extent[3], uint64_t npoints, siz
     return 0;
 }
 
-/* Whether p lies in a sampled block (blocks nest the voxels of both sets:
- * every edge is the first one times a power of two). */
+/* Whether p lies in a sampled block. Every edge is the first one times a
+ * power of two, so the voxels of both sets nest in blocks up to the
+ * block's edge (the exact ladder's first BLOCK_LEVELS coarsenings). */
 static int sampled(wpd_ladder *l, const double p[3])
 {
     uint64_t block = key_of(p, l->block_inv);
@@ -200,8 +204,13 @@ int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales, in
     int at = 0;
     while (at < ns && se[at] < l->all.edge)
         at++;
+    /* The ratio of the two counts at the finest exact scale estimates the
+     * share of voxels sampled only where those voxels nest in blocks: a
+     * voxel of several blocks counts as sampled when any of them is (with
+     * 8 blocks a voxel, 0.40 of the voxels against 1/16). */
     int room = 0;
-    if (at < ns && se[at] == l->all.edge && sm[at] >= WPD_LADDER_SAMPLE_MIN)
+    if (l->all.level <= BLOCK_LEVELS && at < ns && se[at] == l->all.edge &&
+        sm[at] >= WPD_LADDER_SAMPLE_MIN)
         room = at < WPD_MAX_SCALES / 4 ? at : WPD_MAX_SCALES / 4;
     int nall = scale_counts(&l->all, edge + room, m + room, WPD_MAX_SCALES - room);
     if (nall < 0)

@@ -19,8 +19,11 @@
  * exact edge that a hash of the block picks (one in 16): about as many
  * keys. Its counts at the scales finer than the exact ladder's finest,
  * scaled by the ratio of the two ladders' counts at that finest exact
- * scale, come first in the output. Both ladders depend only on the points,
- * not on their order or on how they were split between lanes.
+ * scale, come first in the output - while the exact ladder has coarsened
+ * at most twice (beyond, its voxels hold several blocks and the ratio
+ * means nothing: no estimate, the counts extrapolate as before). Both
+ * ladders depend only on the points, not on their order or on how they
+ * were split between lanes.
  */
 #ifndef WPD_LADDER_H
 #define WPD_LADDER_H

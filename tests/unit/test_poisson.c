@@ -679,3 +679,43 @@ TEST(poisson_certain_long_chain_beyond_the_halo)
     world_free(&w);
     cloud_free(&c);
 }
+
+/* A uniform number in [0, 1) from an LCG state. */
+static double uniform(uint64_t *state)
+{
+    *state = *state * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(*state >> 11) / (double)(1ull << 53);
+}
+
+/* The two-valued pass on 2-4 threads (territories of grid rows, the
+ * slots near their cuts deferred to the sequential pass) keeps exactly the
+ * one-thread pass's samples, with and without sharp-feature points (half
+ * radius), at radii that defer few and many slots. */
+TEST(poisson_threads_keep_the_one_thread_samples)
+{
+    size_t n = 300000;
+    double *xyz = malloc(3 * n * sizeof *xyz);
+    uint64_t *gid = malloc(n * sizeof *gid);
+    uint8_t *edge = malloc(n);
+    uint64_t st = 5;
+    for (size_t i = 0; i < n; i++) {
+        double x = 200 * uniform(&st), y = 120 * uniform(&st);
+        double z = i % 5 == 0 ? 10 * uniform(&st) : 2 * sin(x / 15) * cos(y / 11); /* noise */
+        xyz[3 * i] = x, xyz[3 * i + 1] = y, xyz[3 * i + 2] = z;
+        gid[i] = 7 * i + 3; /* distinct: the priorities are */
+        edge[i] = fabs(x - 100) < 3;
+    }
+    uint32_t *one = malloc(n * 4), *many = malloc(n * 4);
+    wpd_error err;
+    for (int sharp = 0; sharp < 2; sharp++)
+        for (double r = 0.6; r < 10; r *= 4)
+            for (int threads = 2; threads <= 4; threads++) {
+                wpd_poisson_input in = {xyz, gid, sharp ? edge : NULL, NULL, n, NULL, 0, r, 3, 1};
+                long a = wpd_poisson_pass(&in, one, &err);
+                in.threads = threads;
+                long b = wpd_poisson_pass(&in, many, &err);
+                CHECK_MSG(a > 0 && a == b && memcmp(one, many, (size_t)a * 4) == 0,
+                          "r %g, sharp %d, %d threads: %ld vs %ld kept", r, sharp, threads, a, b);
+            }
+    free(xyz); free(gid); free(edge); free(one); free(many);
+}

@@ -218,39 +218,6 @@ TEST(wpd_poisson_context_reruns_match_one_shot_passes)
     scan_free(&s);
 }
 
-/* The two-valued pass on 2-4 threads (territories of grid rows, the
- * slots near their cuts deferred to the sequential pass) keeps exactly the
- * one-thread pass's samples, with and without sharp-feature points (half
- * radius), at radii that defer few and many slots. */
-TEST(wpd_poisson_threads_keep_the_one_thread_samples)
-{
-    size_t n = 300000;
-    double *xyz = malloc(3 * n * sizeof *xyz);
-    uint64_t *gid = malloc(n * sizeof *gid);
-    uint8_t *edge = malloc(n);
-    uint64_t st = 5;
-    for (size_t i = 0; i < n; i++) {
-        double x = 200 * unit(&st), y = 120 * unit(&st);
-        double z = i % 5 == 0 ? 10 * unit(&st) : 2 * sin(x / 15) * cos(y / 11); /* walls of noise */
-        xyz[3 * i] = x, xyz[3 * i + 1] = y, xyz[3 * i + 2] = z;
-        gid[i] = wpd_mix64(i) >> 20;
-        edge[i] = fabs(x - 100) < 3;
-    }
-    uint32_t *one = malloc(n * 4), *many = malloc(n * 4);
-    wpd_error err;
-    for (int sharp = 0; sharp < 2; sharp++)
-        for (double r = 0.6; r < 10; r *= 4)
-            for (int threads = 2; threads <= 4; threads++) {
-                wpd_poisson_input in = {xyz, gid, sharp ? edge : NULL, NULL, n, NULL, 0, r, 3, 1};
-                long a = wpd_poisson_pass(&in, one, &err);
-                in.threads = threads;
-                long b = wpd_poisson_pass(&in, many, &err);
-                CHECK_MSG(a > 0 && a == b && memcmp(one, many, (size_t)a * 4) == 0,
-                          "r %g, sharp %d, %d threads: %ld vs %ld kept", r, sharp, threads, a, b);
-            }
-    free(xyz); free(gid); free(edge); free(one); free(many);
-}
-
 TEST(wpd_refine_follows_eq_5_until_a_pass_keeps_n)
 {
     wpd_refine st;
@@ -740,7 +707,8 @@ TEST(ladder_merge_equals_one_stream)
         CHECK(wpd_ladder_put(&one, xyz + 3 * i) == 0);
     CHECK(wpd_ladder_finish(&one, e1, m1, &n1, &k1) == 0);
     /* a: a tenth of the points, one level; b: the rest, coarser */
-    CHECK(wpd_ladder_init(&a, extent, N, CAP, wanted) == 0 && wpd_ladder_init(&b, extent, N, CAP, wanted) == 0);
+    CHECK(wpd_ladder_init(&a, extent, N, CAP, wanted) == 0 &&
+          wpd_ladder_init(&b, extent, N, CAP, wanted) == 0);
     for (int i = 0; i < N; i++)
         CHECK(wpd_ladder_put(i < N / 10 ? &a : &b, xyz + 3 * i) == 0);
     CHECK_MSG(a.all.level < b.all.level, "levels %d %d", a.all.level, b.all.level);
