@@ -39,4 +39,18 @@ static inline size_t wpd_lower_bound_u64(const uint64_t *a, size_t n, uint64_t k
     return lo;
 }
 
+/* The first index i of a[0..n-1] (ascending) with a[i] >= key; n if none. */
+static inline size_t wpd_lower_bound_u32(const uint32_t *a, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (a[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 #endif

@@ -9,6 +9,7 @@
 #include "core/grid.h"
 #include "common/hugepage.h"
 #include "core/hash.h"
+#include "core/sort.h"
 
 
 /* The greedy pass is exact but visits points in bands of priority rather
@@ -26,6 +27,13 @@
  * one byte comparison (points of smaller priority that are still undecided
  * can only be in the current band). */
 enum { UNDECIDED = 0, REMOVED = 1, ACCEPTED = 2, UNKNOWN = 3, STATUS_MASK = 3 };
+
+/* The two-valued pass on several threads (greedy_parallel below) marks the
+ * slots it leaves to the sequential pass DEFERRED, the UNKNOWN status (the
+ * two-valued pass has no other use for it); try_accept answers DEFER_ME
+ * when its slot waits for one of them. */
+enum { DEFERRED = UNKNOWN };
+#define DEFER_ME (UINT32_MAX - 2)
 
 typedef struct pass_state {
     const wpd_grid *g;
@@ -97,17 +105,18 @@ static int grow(uint32_t **buf, size_t *cap)
 }
 
 /* Tries to accept slot t: one scan of its neighbourhood collects the
- * undecided slots in conflict with it; if one of them has a smaller
- * priority (it can only be in t's band), that one must be decided first and
- * is returned, nothing changes. Otherwise t is accepted, the collected
- * slots are removed, and UINT32_MAX is returned. Returns UINT32_MAX - 1 if
- * the collection buffer cannot grow. */
+ * undecided slots in conflict with it (DEFERRED ones count as undecided);
+ * if one of them has a smaller priority (it can only be in t's band), that
+ * one must be decided first and is returned - DEFER_ME if it is DEFERRED -
+ * and nothing changes. Otherwise t is accepted, the collected slots are
+ * removed, and UINT32_MAX is returned. Returns UINT32_MAX - 1 if the
+ * collection buffer cannot grow. */
 static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
 {
     const wpd_grid *g = ps->g;
     const double *p = g->xyz + 3 * (size_t)t;
     uint64_t pt = ps->prio[t];
-    uint8_t waiting = ps->state[t]; /* undecided, same band */
+    uint8_t band = ps->state[t] >> 2;
     size_t found = 0;
     int64_t lo[3], hi[3];
     double full2 = full_conflict2(ps, rt);
@@ -117,12 +126,12 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
                 uint32_t sb, se;
                 wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
                 for (uint32_t s = sb; s < se; s++) {
-                    uint8_t st = ps->state[s];
-                    if ((st & STATUS_MASK) != UNDECIDED || s == t ||
+                    uint8_t st = ps->state[s], status = st & STATUS_MASK;
+                    if ((status != UNDECIDED && status != DEFERRED) || s == t ||
                         dist2(g->xyz + 3 * (size_t)s, p) >= conflict2(ps, rt, s, full2))
                         continue;
-                    if (st == waiting && ps->prio[s] < pt)
-                        return s;
+                    if (st >> 2 == band && ps->prio[s] < pt)
+                        return status == DEFERRED ? DEFER_ME : s;
                     if (found == ps->hit_cap && grow(&ps->hits, &ps->hit_cap) < 0)
                         return UINT32_MAX - 1;
                     ps->hits[found++] = s;
@@ -130,7 +139,7 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
             }
     ps->state[t] |= ACCEPTED;
     for (size_t i = 0; i < found; i++)
-        ps->state[ps->hits[i]] |= REMOVED;
+        ps->state[ps->hits[i]] = (uint8_t)((ps->state[ps->hits[i]] & ~STATUS_MASK) | REMOVED);
     return UINT32_MAX;
 }
 
@@ -458,8 +467,6 @@ size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell)
  * sequential pass's decision, whatever the threads. On NC Raleigh to 10 K
  * on 2 threads, 951 of the 2.27 M slots are deferred (those within r of
  * the cut and the few that wait for them). */
-enum { DEFERRED = UNKNOWN };
-#define DEFER_ME (UINT32_MAX - 2)
 #define PARALLEL_GREEDY_MIN ((size_t)1 << 18)
 
 /* One thread's part of a band. */
@@ -471,40 +478,6 @@ typedef struct territory {
     size_t ndeferred, deferred_cap;
     int failed;
 } territory;
-
-/* As try_accept, with DEFERRED slots counted as undecided: DEFER_ME when t
- * waits for one of them. */
-static uint32_t try_accept_local(pass_state *ps, uint32_t t, double rt)
-{
-    const wpd_grid *g = ps->g;
-    const double *p = g->xyz + 3 * (size_t)t;
-    uint64_t pt = ps->prio[t];
-    uint8_t band = ps->state[t] >> 2;
-    size_t found = 0;
-    int64_t lo[3], hi[3];
-    double full2 = full_conflict2(ps, rt);
-    if (wpd_grid_box(g, p, 0.5 * (rt + ps->r), lo, hi))
-        for (int64_t b = lo[1]; b <= hi[1]; b++)
-            for (int64_t a = lo[0]; a <= hi[0]; a++) {
-                uint32_t sb, se;
-                wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
-                for (uint32_t s = sb; s < se; s++) {
-                    uint8_t st = ps->state[s], status = st & STATUS_MASK;
-                    if ((status != UNDECIDED && status != DEFERRED) || s == t ||
-                        dist2(g->xyz + 3 * (size_t)s, p) >= conflict2(ps, rt, s, full2))
-                        continue;
-                    if (st >> 2 == band && ps->prio[s] < pt)
-                        return status == DEFERRED ? DEFER_ME : s;
-                    if (found == ps->hit_cap && grow(&ps->hits, &ps->hit_cap) < 0)
-                        return UINT32_MAX - 1;
-                    ps->hits[found++] = s;
-                }
-            }
-    ps->state[t] |= ACCEPTED;
-    for (size_t i = 0; i < found; i++)
-        ps->state[ps->hits[i]] = (uint8_t)((ps->state[ps->hits[i]] & ~STATUS_MASK) | REMOVED);
-    return UINT32_MAX;
-}
 
 /* Whether slot u's conflict box leaves the territory's rows. */
 static int leaves(const pass_state *ps, const territory *tr, uint32_t u)
@@ -547,8 +520,7 @@ static int resolve_local(territory *tr, uint32_t s)
         }
         uint32_t blocker = status == DEFERRED || leaves(ps, tr, t)
                                ? DEFER_ME
-                               : try_accept_local(ps, t, ps->half && ps->half[t] ? 0.5 * ps->r
-                                                                                 : ps->r);
+                               : try_accept(ps, t, ps->half && ps->half[t] ? 0.5 * ps->r : ps->r);
         if (blocker == UINT32_MAX) {
             top--;
             continue;
@@ -561,19 +533,6 @@ static int resolve_local(territory *tr, uint32_t s)
         ps->stack[top++] = blocker;
     }
     return 0;
-}
-
-/* The first position in order[b, e) (slots ascending) whose slot is >= slot. */
-static size_t first_at_least(const uint32_t *order, size_t b, size_t e, size_t slot)
-{
-    while (b < e) {
-        size_t mid = b + (e - b) / 2;
-        if (order[mid] < slot)
-            b = mid + 1;
-        else
-            e = mid;
-    }
-    return b;
 }
 
 static int64_t row_of(const wpd_grid *g, size_t s)
@@ -629,8 +588,9 @@ static int greedy_parallel(wpd_poisson *ps, pass_state *st, int nt)
         for (int k = 0; k < nt; k++) {
             territory *t = &tr[k];
             t->ndeferred = 0;
-            size_t i = first_at_least(ps->order, first, last, t->slot_lo);
-            size_t end = first_at_least(ps->order, i, last, t->slot_hi);
+            /* The band's slots are ascending in order[first, last). */
+            size_t i = first + wpd_lower_bound_u32(ps->order + first, last - first, t->slot_lo);
+            size_t end = i + wpd_lower_bound_u32(ps->order + i, last - i, t->slot_hi);
             for (; i < end && !t->failed; i++)
                 if ((ps->state[ps->order[i]] & STATUS_MASK) == UNDECIDED)
                     t->failed = resolve_local(t, ps->order[i]) < 0;
