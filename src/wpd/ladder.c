@@ -19,6 +19,9 @@ enum { KEY_BITS = 21 };
 #define BLOCK_LEVELS 2
 #define SAMPLE_SHARE 16
 
+/* log2(WPD_LADDER_RECENT) */
+#define RECENT_BITS 12
+
 static uint64_t pack(uint64_t ix, uint64_t iy, uint64_t iz)
 {
     return ix | iy << KEY_BITS | iz << (2 * KEY_BITS);
@@ -56,12 +59,22 @@ static int coarsen(wpd_voxel_set *set)
     return 0;
 }
 
+/* Forgets the recent keys (the set's keys changed scale). */
+static void forget_recent(wpd_ladder_scale *s)
+{
+    s->last = WPD_VOXEL_KEY_EMPTY;
+    memset(s->recent, 0xff, WPD_LADDER_RECENT * sizeof *s->recent);
+}
+
 static int scale_init(wpd_ladder_scale *s, double edge)
 {
     s->edge = edge;
     s->inv = 1.0 / edge;
     s->level = 0;
-    s->last = WPD_VOXEL_KEY_EMPTY;
+    s->recent = malloc(WPD_LADDER_RECENT * sizeof *s->recent);
+    if (!s->recent)
+        return -1;
+    forget_recent(s);
     return wpd_voxel_set_init(&s->set, 4096);
 }
 
@@ -73,7 +86,7 @@ static int coarsen_scale(wpd_ladder_scale *s)
     s->edge *= 2;
     s->inv = 1.0 / s->edge;
     s->level++;
-    s->last = WPD_VOXEL_KEY_EMPTY;
+    forget_recent(s);
     return 0;
 }
 
@@ -92,6 +105,10 @@ static int scale_put(wpd_ladder_scale *s, const double p[3], size_t cap)
     if (key == s->last)
         return 0;
     s->last = key;
+    uint64_t *seen = s->recent + (wpd_mix64(key) >> (64 - RECENT_BITS));
+    if (*seen == key)
+        return 0;
+    *seen = key;
     if (wpd_voxel_set_put(&s->set, key))
         return -1;
     return fit_cap(s, cap);
@@ -115,7 +132,7 @@ static int scale_merge(wpd_ladder_scale *into, wpd_ladder_scale *from, size_t ca
         if (wpd_voxel_set_put(&into->set, key) || fit_cap(into, cap))
             return -1;
     }
-    into->last = WPD_VOXEL_KEY_EMPTY;
+    forget_recent(into);
     return 0;
 }
 
@@ -229,4 +246,7 @@ void wpd_ladder_free(wpd_ladder *l)
 {
     wpd_voxel_set_free(&l->all.set);
     wpd_voxel_set_free(&l->sample.set);
+    free(l->all.recent);
+    free(l->sample.recent);
+    l->all.recent = l->sample.recent = NULL;
 }

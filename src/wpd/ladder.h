@@ -43,7 +43,12 @@ typedef struct wpd_ladder_scale {
     double edge, inv;         /* current voxel edge */
     int level;                /* times coarsened since init */
     uint64_t last;            /* last key put: scans repeat voxels */
+    uint64_t *recent;         /* [WPD_LADDER_RECENT] keys put lately, by a hash of
+                                 the key: a scan line's voxels come back on the
+                                 next lines, and a key found here is in the set */
 } wpd_ladder_scale;
+
+#define WPD_LADDER_RECENT 4096
 
 typedef struct wpd_ladder {
     wpd_ladder_scale all;     /* every point */

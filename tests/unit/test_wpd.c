@@ -724,6 +724,68 @@ TEST(ladder_merge_equals_one_stream)
     free(xyz);
 }
 
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Occupied voxels of edge `edge` among n points, counted by sorting their
+ * keys (the ladder's own voxel arithmetic: index = (uint64_t)(p / edge)). */
+static uint64_t distinct_voxels(const double *xyz, size_t n, double edge, uint64_t *key)
+{
+    double inv = 1.0 / edge;
+    for (size_t i = 0; i < n; i++) {
+        const double *p = xyz + 3 * i;
+        key[i] = (uint64_t)(p[0] * inv) | (uint64_t)(p[1] * inv) << 21 |
+                 (uint64_t)(p[2] * inv) << 42;
+    }
+    qsort(key, n, sizeof *key, cmp_u64);
+    uint64_t m = 0;
+    for (size_t i = 0; i < n; i++)
+        m += i == 0 || key[i] != key[i - 1];
+    return m;
+}
+
+/* The ladder's counts are exact at every scale for points in scan order,
+ * whose lines come back to the voxels of the lines before (what the
+ * recent-key filter skips), with a cap small enough to coarsen the set
+ * several times mid-stream (when the filter must forget its keys). */
+TEST(ladder_counts_exact_on_scan_lines)
+{
+    enum { LINES = 400, PER_LINE = 500, N = LINES * PER_LINE, CAP = 1024 };
+    double *xyz = malloc(3 * (size_t)N * sizeof *xyz);
+    uint64_t *key = malloc((size_t)N * sizeof *key);
+    CHECK(xyz && key);
+    for (int l = 0; l < LINES && xyz; l++)
+        for (int j = 0; j < PER_LINE; j++) {
+            double *p = xyz + 3 * ((size_t)l * PER_LINE + (size_t)j);
+            int along = l % 2 ? PER_LINE - 1 - j : j; /* back and forth */
+            p[0] = 0.2 * along;
+            p[1] = 0.25 * l + 0.01 * (j % 7);
+            p[2] = 50 + 45 * sin(0.07 * along + 0.3 * l); /* a volume: many voxels */
+        }
+    const double extent[3] = {100, 100, 100};
+    double e[WPD_MAX_SCALES];
+    uint64_t m[WPD_MAX_SCALES];
+    int n = 0, k = 0;
+    wpd_ladder l;
+    CHECK(wpd_ladder_init(&l, extent, N, CAP, 1000) == 0);
+    for (size_t i = 0; xyz && i < N; i++)
+        CHECK(wpd_ladder_put(&l, xyz + 3 * i) == 0);
+    CHECK_MSG(l.all.level >= 2, "the set coarsened %d times", l.all.level);
+    CHECK(wpd_ladder_finish(&l, e, m, &n, &k) == 0);
+    CHECK(n > 3 && k == 0);
+    for (int i = 0; xyz && key && i < n; i++) {
+        uint64_t exact = distinct_voxels(xyz, N, e[i], key);
+        CHECK_MSG(m[i] == exact, "edge %g: ladder %llu, exact %llu", e[i],
+                  (unsigned long long)m[i], (unsigned long long)exact);
+    }
+    wpd_ladder_free(&l);
+    free(key);
+    free(xyz);
+}
+
 /* The scales finer than the exact ladder's, estimated from the sampled
  * blocks, agree with exact counts on a surface; a target the exact scales
  * can hold gets no estimate, and the exact counts are the same either way. */
