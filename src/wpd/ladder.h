@@ -48,7 +48,8 @@ typedef struct wpd_ladder_scale {
                                  next lines, and a key found here is in the set */
 } wpd_ladder_scale;
 
-#define WPD_LADDER_RECENT 4096
+#define WPD_LADDER_RECENT_BITS 12
+#define WPD_LADDER_RECENT (1u << WPD_LADDER_RECENT_BITS)
 
 typedef struct wpd_ladder {
     wpd_ladder_scale all;     /* every point */
