@@ -8,16 +8,19 @@ LDLIBS  += -lzstd -lpng -lm
 LDFLAGS += -fopenmp
 PREFIX  ?= /usr/local
 
-# Every .c under src/ and tools/ except the program entry point goes into a
-# static library shared by the program and the unit tests.
-LIB_SRC  := $(filter-out src/cli/main.c,$(wildcard src/*/*.c tools/*.c))
+# Every .c under src/ and tools/ except the program entry point and the MPI
+# ranks goes into a static library shared by the program and the unit tests
+# (with the one-rank src/par/par_single.c).
+LIB_SRC  := $(filter-out src/cli/main.c src/par/par_mpi.c,$(wildcard src/*/*.c tools/*.c))
 LIB_OBJ  := $(LIB_SRC:%.c=build/%.o)
 MAIN_OBJ := build/src/cli/main.o
 TEST_SRC := $(wildcard tests/unit/*.c)
 TEST_OBJ := $(TEST_SRC:%.c=build/%.o)
 
-# Debian packages needed to build and test.
-DEB_PKGS := gcc make libzstd-dev libpng-dev libc6-dev python3 python3-numpy bc
+# Debian packages needed to build and test (Open MPI for the MPI build and
+# its tests).
+DEB_PKGS := gcc make libzstd-dev libpng-dev libc6-dev python3 python3-numpy bc \
+            openmpi-bin libopenmpi-dev
 
 .PHONY: all test demo bench install clean deps
 
@@ -25,6 +28,20 @@ all: wpd
 
 wpd: $(MAIN_OBJ) build/libwpd.a
 	$(CC) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+# `make MPI=1` builds wpd-mpi beside wpd (docs/scale-out.md): the same
+# program with the ranks of src/par/par_mpi.c, linked before the library so
+# that the one-rank par_single.o in it is not pulled in.
+MPICC ?= mpicc
+ifeq ($(MPI),1)
+all: wpd-mpi
+endif
+wpd-mpi: $(MAIN_OBJ) build/mpi/par_mpi.o build/libwpd.a
+	$(MPICC) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+build/mpi/par_mpi.o: src/par/par_mpi.c
+	@mkdir -p $(dir $@)
+	$(MPICC) $(CFLAGS) -MMD -MP -c -o $@ $<
 
 # Made anew each time: ar would keep the objects of deleted sources.
 build/libwpd.a: $(LIB_OBJ)
@@ -47,7 +64,7 @@ build/spill_bench: bench/spill_bench.c build/libwpd.a
 build/laz_bench: bench/laz_bench.c build/libwpd.a
 	$(CC) $(CFLAGS) $(LDFLAGS) -o $@ $< build/libwpd.a $(LDLIBS)
 
--include $(LIB_OBJ:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_OBJ:.o=.d)
+-include $(LIB_OBJ:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_OBJ:.o=.d) build/mpi/par_mpi.d
 
 # Installs the missing Debian build packages when run as root; otherwise
 # only reports what is missing.
@@ -64,6 +81,7 @@ deps:
 
 test: deps
 	$(MAKE) wpd build/unit_tests
+	if command -v $(MPICC) >/dev/null; then $(MAKE) wpd-mpi; fi
 	tests/run.sh
 
 demo: deps
@@ -80,7 +98,7 @@ install: wpd
 	if [ -f docs/wpd.1 ]; then install -m 644 docs/wpd.1 $(DESTDIR)$(PREFIX)/share/man/man1/wpd.1; fi
 
 clean:
-	rm -rf build wpd
+	rm -rf build wpd wpd-mpi
 
 # ---- Hardening: fuzzing and sanitizer builds (docs/hardening.md) ----------
 # make fuzz [FUZZ_RUNS=N]  libFuzzer targets for the PLY, LAS and LAZ readers and

@@ -102,6 +102,7 @@ typedef struct resample_options {
     wpd_progress progress;
     wpd_params params;
     wpd_write_options write;
+    const wpd_par *par;       /* the ranks: rank 0 writes, all agree on the outcome */
 } resample_options;
 
 /* ---------------------------------------------------------------- options */
@@ -570,20 +571,34 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
     return 0;
 }
 
+/* Every rank's outcome of the run, agreed before the outputs are put in
+ * place (par/par.h): 0 when every rank succeeded, else -1 with the first
+ * failing rank's error. Every rank passes here once. */
+static int agree_outcome(const resample_options *o, int rc, wpd_error *err)
+{
+    if (rc == 0)
+        wpd_error_clear(err);
+    else if (err->code == WPD_OK)
+        err->code = WPD_E_IO; /* a failure must not read as success */
+    return wpd_par_close(o->par, err);
+}
+
+/* The run; rank 0 (the writer) also writes the outputs and delivers them
+ * once every rank has succeeded. */
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
-    if (check_outputs(inputs, ninputs, o, err))
-        return -1;
-    wpd_cloud *cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err);
-    if (!cloud)
-        return -1;
+    wpd_cloud *cloud = NULL;
+    if (check_outputs(inputs, ninputs, o, err) ||
+        !(cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err)))
+        return agree_outcome(o, -1, err);
     /* Compressed inputs are decoded once: the scan keeps their records for
      * the tile and records passes (docs/engine.md, "Compressed inputs"). */
     char cache_base[1024];
     if (wpd_cloud_cache_records(cloud, spill_dir(o, cache_base, sizeof cache_base), err)) {
         wpd_cloud_close(cloud);
-        return -1;
+        return agree_outcome(o, -1, err);
     }
+    int writer = wpd_par_rank(o->par) == 0, agreed = 0;
     if (!o->quiet)
         wpd_cloud_print_warnings(cloud, "resample", stderr);
     for (int i = 0; o->edge_label && !o->quiet && i < wpd_cloud_nfiles(cloud); i++)
@@ -605,7 +620,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
                  "percentage", o->count_text);
         goto done;
     }
-    if (pending_open(&pending, cloud, o, err))
+    if (writer && pending_open(&pending, cloud, o, err))
         goto done;
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
@@ -619,7 +634,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.threads = o->params.threads > 0 ? o->params.threads : omp_get_max_threads();
     char dir[1024];
     wpd_resample_options ro = {target, o->mem_bytes, spill_dir(o, dir, sizeof dir),
-                               o->min_tiles, o->params, &o->progress};
+                               o->min_tiles, o->params, &o->progress, o->par};
     rc = wpd_class_args_used(&o->classes)
              ? run_by_class(cloud, o, &ro, &res, &classes, &info, err)
              : wpd_resample_run(cloud, &ro, &res, err);
@@ -641,16 +656,20 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     double tw = omp_get_wtime();
     /* The records pass reads every input point: progress in those. */
     wpd_progress_phase(&o->progress, "write", res.input_points, "points");
-    if (rc == 0)
+    if (rc == 0 && writer)
         rc = write_outputs(&sel, cloud, o, pending.files, err);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
     info.peak_rss_kb = peak_rss_kb();
     info.records_cached = wpd_cloud_cache_hits(cloud);
-    if (rc == 0)
+    rc = agree_outcome(o, rc, err);
+    agreed = 1;
+    if (rc == 0 && writer)
         rc = deliver(&info, &metrics_json, &sel, &pending, o, err);
 done:
+    if (!agreed)
+        rc = agree_outcome(o, rc, err);
     pending_close(&pending, o);
     wpd_resample_result_free(&res);
     wpd_class_result_free(&classes);
@@ -709,19 +728,31 @@ static int run_command(char **inputs, int ninputs, resample_options *o)
     }
     const char *target = o->output ? o->output : o->per_input;
     sweep_leftovers(o);
-    int lock = wpd_output_lock(target, &err);
-    if (lock < 0)
-        return wpd_report_error("resample", &err);
-    int rc = resample(inputs, ninputs, o, &err);
-    wpd_output_unlock(lock, target);
-    return rc ? wpd_report_error("resample", &err) : 0;
+    /* Rank 0 alone takes the output lock; the others learn of its failure
+     * in the run's first agreement. */
+    int writer = wpd_par_rank(o->par) == 0, lock = -1, rc;
+    if (writer && (lock = wpd_output_lock(target, &err)) < 0) {
+        rc = agree_outcome(o, -1, &err);
+    } else {
+        rc = resample(inputs, ninputs, o, &err);
+        if (writer)
+            wpd_output_unlock(lock, target);
+    }
+    if (rc == 0)
+        return 0;
+    return writer ? wpd_report_error("resample", &err) : (int)err.code;
 }
 
-int wpd_cmd_resample(int argc, char **argv)
+int wpd_cmd_resample(int argc, char **argv, const wpd_par *par)
 {
     resample_options o;
     int first;
     int rc = parse_args(argc, argv, &o, &first);
+    o.par = par;
+    if (rc == 0 && wpd_par_rank(par) != 0) { /* progress and notes from rank 0 */
+        o.quiet = 1;
+        wpd_progress_init(&o.progress, WPD_PROGRESS_QUIET);
+    }
     if (rc == 0)
         rc = run_command(argv + first, argc - first, &o);
     else

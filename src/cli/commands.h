@@ -5,12 +5,15 @@
 #define WPD_COMMANDS_H
 
 #include "common/error.h"
+#include "par/par.h"
 
 #define WPD_VERSION "0.1.0"
 
 int wpd_cmd_info(int argc, char **argv);
 int wpd_cmd_convert(int argc, char **argv);
-int wpd_cmd_resample(int argc, char **argv);
+/* par: the ranks of an MPI run (wpd-mpi), which share the run and agree on
+ * its outcome; rank 0 alone writes the output, progress and summary. */
+int wpd_cmd_resample(int argc, char **argv, const wpd_par *par);
 
 /* Prints "wpd <command>: <msg>" on stderr and returns err->code. */
 int wpd_report_error(const char *command, const wpd_error *err);

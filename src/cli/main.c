@@ -12,20 +12,28 @@
 #include <string.h>
 #include <unistd.h>
 
+/* A subcommand: run, or run_ranked for one that shares its work between
+ * the ranks of an MPI run (par/par.h). Under wpd-mpi with several ranks
+ * the others run on rank 0 alone (the other ranks exit with 0), so that an
+ * `mpirun wpd-mpi convert ...` writes its output once. */
 typedef struct command {
     const char *name;
     int (*run)(int argc, char **argv);
+    int (*run_ranked)(int argc, char **argv, const wpd_par *par);
     const char *summary;
 } command;
 
 static const command commands[] = {
-    {"info", wpd_cmd_info, "describe LAS/PLY files: format, count, bounds, schema, VLRs"},
-    {"convert", wpd_cmd_convert, "stream points from one file (or several) into LAS or PLY"},
-    {"resample", wpd_cmd_resample, "resample to exactly N points (Weighted Poisson-disk)"},
-    {"synth", wpd_synth_main, "generate a synthetic city-like LiDAR scan of any size"},
-    {"metrics", wpd_metrics_main, "quality of a resampling: distances, density, spacing"},
-    {"preview", wpd_preview_main, "draw a cloud, or two side by side with spacing histograms (PNG)"},
-    {"edges", wpd_edges_main, "label the sharp features (creases) of a cloud, measure them"},
+    {"info", wpd_cmd_info, NULL, "describe LAS/PLY files: format, count, bounds, schema, VLRs"},
+    {"convert", wpd_cmd_convert, NULL,
+     "stream points from one file (or several) into LAS or PLY"},
+    {"resample", NULL, wpd_cmd_resample, "resample to exactly N points (Weighted Poisson-disk)"},
+    {"synth", wpd_synth_main, NULL, "generate a synthetic city-like LiDAR scan of any size"},
+    {"metrics", wpd_metrics_main, NULL, "quality of a resampling: distances, density, spacing"},
+    {"preview", wpd_preview_main, NULL,
+     "draw a cloud, or two side by side with spacing histograms (PNG)"},
+    {"edges", wpd_edges_main, NULL,
+     "label the sharp features (creases) of a cloud, measure them"},
 };
 
 static void usage(FILE *f)
@@ -50,7 +58,7 @@ static void library_exit_is_a_memory_error(void)
         _exit(WPD_E_MEMORY);
 }
 
-static int dispatch(int argc, char **argv);
+static int dispatch(int argc, char **argv, const wpd_par *par);
 
 int main(int argc, char **argv)
 {
@@ -61,12 +69,16 @@ int main(int argc, char **argv)
      * full disk (exit 3, outputs removed), not kill the process with
      * SIGXFSZ before it can clean up. */
     signal(SIGXFSZ, SIG_IGN);
-    int rc = dispatch(argc, argv);
+    wpd_par *par = wpd_par_start(&argc, &argv);
+    if (!par)
+        return WPD_E_IO;
+    int rc = dispatch(argc, argv, par);
     returned_to_main = 1;
+    wpd_par_end(par);
     return rc;
 }
 
-static int dispatch(int argc, char **argv)
+static int dispatch(int argc, char **argv, const wpd_par *par)
 {
     /* The pipeline allocates and frees tile-sized arrays over and over; with
      * glibc's defaults each one is a fresh mmap whose pages are faulted in
@@ -102,7 +114,9 @@ static int dispatch(int argc, char **argv)
                 printf("wpd %s\n", WPD_VERSION);
                 return 0;
             }
-        return commands[i].run(argc - 1, argv + 1);
+        if (commands[i].run_ranked)
+            return commands[i].run_ranked(argc - 1, argv + 1, par);
+        return wpd_par_rank(par) == 0 ? commands[i].run(argc - 1, argv + 1) : 0;
     }
     fprintf(stderr, "wpd: unknown command '%s' (see 'wpd --help')\n", argv[1]);
     return WPD_E_USAGE;

@@ -124,7 +124,7 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     size_t room = mem > WPD_BUDGET_FIXED_BYTES ? mem - WPD_BUDGET_FIXED_BYTES : 0;
     double paper_frac = run->p->radius_method == WPD_RADIUS_PAPER ? run->p->voxel_frac : 0;
     double wanted = (double)run->opt->target / run->p->density;
-    if (wpd_scan_run(run->cloud, WPD_LADDER_KEYS, wanted, paper_frac, run->threads, room,
+    if (wpd_scan_run(run->cloud, run->opt->par, WPD_LADDER_KEYS, wanted, paper_frac, run->threads, room,
                      run->opt->progress, &run->scan, err))
         return -1;
     res->time.bounds = run->scan.bounds_seconds;

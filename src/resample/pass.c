@@ -166,7 +166,8 @@ static void run_parallel(pass_state *s, int l)
         uint64_t u = atomic_fetch_add(&s->next_unit, 1);
         if (u >= s->unit_first[s->nfiles])
             break;
-        run_unit(s, l, u);
+        if (s->p->shares < 2 || u % (uint64_t)s->p->shares == (uint64_t)s->p->share)
+            run_unit(s, l, u);
     }
 }
 
@@ -206,7 +207,8 @@ static void run_serial(pass_state *s, int l)
             wpd_first_error_keep(&s->fe, &err);
         if (got <= 0)
             break;
-        int ok = !p->lane || p->lane(p->arg, &pb, &err) == 0;
+        int mine = p->shares < 2 || seq % (uint64_t)p->shares == (uint64_t)p->share;
+        int ok = !mine || !p->lane || p->lane(p->arg, &pb, &err) == 0;
         if (p->commit) {
             wait_turn(s, seq); /* taken: passed even after a failure */
             ok = ok && commit(s, &pb, &err) == 0;
@@ -354,8 +356,9 @@ int wpd_pass_run(const wpd_pass *p, wpd_error *err)
     uint64_t records = wpd_cloud_count(p->cloud);
     int whole = p->end == 0 || p->end >= records;
     s.end = whole ? records : p->end;
-    /* Serial with one lane too: seeking buys nothing there. */
-    s.parallel = p->threads > 1 && wpd_cloud_can_seek(p->cloud);
+    /* Serial with one lane too: seeking buys nothing there, unless the
+     * units are shared with other processes (which then skip the others'). */
+    s.parallel = (p->threads > 1 || p->shares > 1) && wpd_cloud_can_seek(p->cloud);
     pthread_mutex_init(&s.mu, NULL);
     pthread_cond_init(&s.turn, NULL);
     int rc = setup(&s, err);
@@ -370,7 +373,7 @@ int wpd_pass_run(const wpd_pass *p, wpd_error *err)
         }
         rc = wpd_first_error_take(&s.fe, err);
     }
-    if (rc == 0 && whole)
+    if (rc == 0 && whole && p->shares < 2)
         hand_back_counts(&s);
     teardown(&s);
     pthread_mutex_destroy(&s.mu);

@@ -77,6 +77,12 @@ typedef struct wpd_pass {
     void *arg;                /* given to both */
     wpd_progress *progress;   /* a batch's points are added once it is done (lane,
                                  or commit when ordered); may be NULL */
+    int share, shares;        /* shares >= 2 (unordered passes only): this process
+                                 handles only the units (serial reading: the
+                                 batches) whose number modulo shares is share, the
+                                 others those of the other shares (the ranks of
+                                 an MPI run); the cloud's counts are then left
+                                 untouched. 0, 0: everything */
 } wpd_pass;
 
 /* Bytes one lane of a pass over c costs: its batch and its cloud. */

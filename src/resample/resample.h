@@ -35,6 +35,7 @@
 #include "common/error.h"
 #include "common/progress.h"
 #include "io/cloud.h"
+#include "par/par.h"
 #include "spill/run_merge.h"
 #include "spill/runs.h"
 #include "spill/spill.h"
@@ -47,6 +48,9 @@ typedef struct wpd_resample_options {
     int min_tiles;            /* >= 2: tiles (the spill) with at least this many */
     wpd_params params;        /* the method's parameters; threads */
     wpd_progress *progress;   /* phase progress, or NULL */
+    const wpd_par *par;       /* the ranks of an MPI run (par/par.h), or NULL: one
+                                 process. Every rank runs the same run; the ranks
+                                 share the scan's reading (docs/scale-out.md) */
 } wpd_resample_options;
 
 /* Wall time of each phase, seconds. */

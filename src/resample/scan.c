@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "par/par.h"
 #include "resample/pass.h"
 #include "wpd/ladder.h"
 
@@ -127,13 +128,68 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 /* Streams the cloud once on `threads` lanes into the counters: bounds and
  * points per file, and with scan != NULL the voxels and the density.
  * Returns 0, or -1 with err set (read error, or memory for the ladder). */
-static int count_cloud(wpd_cloud *cloud, const wpd_scan *scan, counter *c, int threads,
-                       wpd_progress *pg, wpd_error *err)
+static int count_cloud(wpd_cloud *cloud, const wpd_par *par, const wpd_scan *scan,
+                       counter *c, int threads, wpd_progress *pg, wpd_error *err)
 {
     count_job job = {scan, c};
+    int ranks = wpd_par_ranks(par);
     wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &job,
-                     .progress = pg};
+                     .progress = pg, .share = ranks > 1 ? wpd_par_rank(par) : 0,
+                     .shares = ranks > 1 ? ranks : 0};
     return wpd_pass_run(&pass, err);
+}
+
+/* With several ranks (par/par.h), each has counted its share of the units
+ * (sums and sets, like the lanes): the box and points per file summed over
+ * the ranks into box and file_count. Every rank calls it, whether its own
+ * count failed (rc -1, err set) or not: it agrees first. Returns 0 or -1. */
+static int sum_ranks(const wpd_par *par, int rc, wpd_bounds *box, uint64_t *file_count,
+                     int nfiles, wpd_error *err)
+{
+    if (wpd_par_ranks(par) < 2)
+        return rc;
+    if (rc == 0)
+        wpd_error_clear(err);
+    if (wpd_par_agree(par, err) || wpd_par_min_f64(par, box->min, 3, err) ||
+        wpd_par_max_f64(par, box->max, 3, err) || wpd_par_sum_u64(par, &box->count, 1, err))
+        return -1;
+    return wpd_par_sum_u64(par, file_count, (size_t)nfiles, err);
+}
+
+/* The ranks' densities, paper voxels and ladders into c (this rank's lanes
+ * already combined into it): every rank gets the counts of all. */
+static int combine_ranks(const wpd_par *par, const wpd_scan *s, counter *c, size_t cells,
+                         wpd_error *err)
+{
+    if (wpd_par_ranks(par) < 2)
+        return 0;
+    uint8_t *mine = NULL, *all = NULL;
+    size_t n = 0, ranks = (size_t)wpd_par_ranks(par);
+    size_t *off = calloc(ranks, sizeof *off), *len = calloc(ranks, sizeof *len);
+    int rc = -1;
+    if (!off || !len || wpd_ladder_pack(&c->ladder, &mine, &n)) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
+        mine = NULL;
+    }
+    if (wpd_par_agree(par, err) || wpd_par_sum_u64(par, c->density, cells, err) ||
+        (c->paper && wpd_par_or_u8(par, c->paper, paper_cells(s) / 8 + 1, err)) ||
+        wpd_par_gather_all(par, mine, n, &all, off, len, err))
+        goto done;
+    /* In rank order: the same ladder on every rank (and the one a single
+     * process counts, wpd_ladder_merge). */
+    for (size_t k = 0; k < ranks; k++)
+        if (k != (size_t)wpd_par_rank(par) &&
+            wpd_ladder_merge_packed(&c->ladder, all + off[k], len[k])) {
+            wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
+            goto done;
+        }
+    rc = 0;
+done:
+    free(mine);
+    free(all);
+    free(off);
+    free(len);
+    return rc;
 }
 
 /* The actual box and points per file of what the counters saw. */
@@ -154,18 +210,18 @@ static void sum_counters(const counter *c, int threads, int nfiles, wpd_bounds *
 }
 
 /* Pass 1 when the headers declare no usable box: the actual one. */
-static int bounds_pass(wpd_cloud *cloud, wpd_scan *s, int threads, size_t room,
-                       wpd_progress *pg, wpd_bounds *box, wpd_error *err)
+static int bounds_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, int threads,
+                       size_t room, wpd_progress *pg, wpd_bounds *box, wpd_error *err)
 {
     threads = wpd_threads_within(threads, room, wpd_pass_lane_bytes(cloud));
     counter *c = counters_new(cloud, NULL, 0, threads, 0);
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    int rc = count_cloud(cloud, NULL, c, threads, pg, err);
+    int rc = count_cloud(cloud, par, NULL, c, threads, pg, err);
     if (rc == 0)
         sum_counters(c, threads, s->nfiles, box, s->file_count);
     counters_free(c, threads);
-    return rc;
+    return sum_ranks(par, rc, box, s->file_count, s->nfiles, err);
 }
 
 /* The frame: origin at the box's minimum corner. */
@@ -191,31 +247,38 @@ static void init_grid(wpd_scan *s)
     }
 }
 
-/* Sums the threads' densities into s and merges their ladders into the
- * counts per scale: the same as one thread counting everything. */
-static int combine(wpd_scan *s, counter *c, int threads, size_t cells)
+/* Sums the threads' densities and paper voxels into c[0] and merges their
+ * ladders into its ladder: the same as one thread counting everything. */
+static int combine_lanes(const wpd_scan *s, counter *c, int threads, size_t cells)
 {
+    uint64_t bytes = paper_cells(s) ? paper_cells(s) / 8 + 1 : 0;
     for (int t = 1; t < threads; t++) {
         for (size_t i = 0; i < cells; i++)
             c[0].density[i] += c[t].density[i];
+        for (uint64_t i = 0; i < bytes; i++)
+            c[0].paper[i] |= c[t].paper[i];
         if (wpd_ladder_merge(&c[0].ladder, &c[t].ladder))
             return -1;
     }
-    memcpy(s->density, c[0].density, cells * sizeof *s->density);
+    return 0;
+}
+
+/* The combined counts of c (all lanes, all ranks) into s: density, paper
+ * voxels and the counts per scale. */
+static int finish_counts(wpd_scan *s, counter *c, size_t cells)
+{
+    memcpy(s->density, c->density, cells * sizeof *s->density);
     uint64_t bytes = paper_cells(s) ? paper_cells(s) / 8 + 1 : 0;
     s->paper_voxels = 0;
-    for (uint64_t i = 0; i < bytes; i++) {
-        uint8_t b = 0;
-        for (int t = 0; t < threads; t++)
-            b |= c[t].paper[i];
-        s->paper_voxels += (uint64_t)__builtin_popcount(b);
-    }
-    return wpd_ladder_finish(&c[0].ladder, s->edge, s->voxels, &s->nscales, &s->nestimated);
+    for (uint64_t i = 0; i < bytes; i++)
+        s->paper_voxels += (uint64_t)__builtin_popcount(c->paper[i]);
+    return wpd_ladder_finish(&c->ladder, s->edge, s->voxels, &s->nscales, &s->nestimated);
 }
 
 /* Pass 2 in the frame of s; also the actual box and points per file. */
-static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int threads,
-                     size_t room, wpd_progress *pg, wpd_bounds *actual, wpd_error *err)
+static int scan_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, size_t voxel_cap,
+                     int threads, size_t room, wpd_progress *pg, wpd_bounds *actual,
+                     wpd_error *err)
 {
     init_grid(s);
     size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
@@ -234,18 +297,23 @@ static int scan_pass(wpd_cloud *cloud, wpd_scan *s, size_t voxel_cap, int thread
     counter *c = s->density ? counters_new(cloud, s, voxel_cap, threads, cells) : NULL;
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
-    int rc = count_cloud(cloud, s, c, threads, pg, err);
-    if (rc == 0 && combine(s, c, threads, cells))
+    int rc = count_cloud(cloud, par, s, c, threads, pg, err);
+    if (rc == 0 && combine_lanes(s, c, threads, cells))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     if (rc == 0)
         sum_counters(c, threads, s->nfiles, actual, s->file_count);
+    rc = sum_ranks(par, rc, actual, s->file_count, s->nfiles, err);
+    if (rc == 0)
+        rc = combine_ranks(par, s, c, cells, err);
+    if (rc == 0 && finish_counts(s, c, cells))
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     counters_free(c, threads);
     return rc;
 }
 
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, double paper_frac,
-                 int threads, size_t room, wpd_progress *progress, wpd_scan *out,
-                 wpd_error *err)
+int wpd_scan_run(wpd_cloud *cloud, const wpd_par *par, size_t voxel_cap, double wanted_voxels,
+                 double paper_frac, int threads, size_t room, wpd_progress *progress,
+                 wpd_scan *out, wpd_error *err)
 {
     memset(out, 0, sizeof *out);
     out->wanted_voxels = wanted_voxels;
@@ -265,7 +333,7 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, doubl
         set_frame(out, &declared);
     } else {
         wpd_progress_phase(progress, "bounds", wpd_cloud_count(cloud), "points");
-        if (bounds_pass(cloud, out, threads, room, progress, &actual, err))
+        if (bounds_pass(cloud, par, out, threads, room, progress, &actual, err))
             goto fail;
         wpd_progress_end(progress);
         set_frame(out, &actual);
@@ -279,7 +347,7 @@ int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, doubl
             goto fail;
         }
         wpd_progress_phase(progress, "scan", out->count, "points");
-        if (scan_pass(cloud, out, voxel_cap, threads, room, progress, &actual, err))
+        if (scan_pass(cloud, par, out, voxel_cap, threads, room, progress, &actual, err))
             goto fail;
         wpd_progress_end(progress);
         if (!have_declared || pass > 0 || wpd_bounds_tight(&declared, &actual))

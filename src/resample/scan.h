@@ -24,6 +24,7 @@
 #include "common/error.h"
 #include "common/progress.h"
 #include "io/cloud.h"
+#include "par/par.h"
 #include "wpd/radius.h"
 
 #define WPD_SCAN_GRID 128
@@ -60,12 +61,15 @@ typedef struct wpd_scan {
  * at once (memory: ~32 bytes each); wanted_voxels: about how many voxels
  * the radius will occupy (the target over the density), which decides
  * whether the sampled finer scales are counted (wpd_ladder_init).
+ * par (NULL: one process): the ranks of an MPI run share the reading, each
+ * counting its share of the units, and every rank gets the counts of all
+ * (the same as one process counting everything); every rank must call it.
  * Returns 0, or -1 with err set (read errors; WPD_E_INPUT when there is no
  * finite point). progress (may be NULL) gets phases
  * "bounds" (when it runs) and "scan". */
-int wpd_scan_run(wpd_cloud *cloud, size_t voxel_cap, double wanted_voxels, double paper_frac,
-                 int threads, size_t room, wpd_progress *progress, wpd_scan *out,
-                 wpd_error *err);
+int wpd_scan_run(wpd_cloud *cloud, const wpd_par *par, size_t voxel_cap, double wanted_voxels,
+                 double paper_frac, int threads, size_t room, wpd_progress *progress,
+                 wpd_scan *out, wpd_error *err);
 
 /* Density grid cell of frame point p (clamped into the grid). Inline: the
  * scan and the tiler ask it for every point. */

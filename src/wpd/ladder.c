@@ -60,7 +60,8 @@ static int coarsen(wpd_voxel_set *set)
 static void forget_recent(wpd_ladder_scale *s)
 {
     s->last = WPD_VOXEL_KEY_EMPTY;
-    memset(s->recent, 0xff, WPD_LADDER_RECENT * sizeof *s->recent);
+    if (s->recent) /* a scale unpacked for a merge has none */
+        memset(s->recent, 0xff, WPD_LADDER_RECENT * sizeof *s->recent);
 }
 
 static int scale_init(wpd_ladder_scale *s, double edge)
@@ -237,6 +238,76 @@ int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales, in
     *nscales = room + nall;
     *nestimated = room;
     return 0;
+}
+
+/* A scale packed: its level, its key count, its keys. */
+static size_t scale_pack(const wpd_ladder_scale *s, uint64_t *out)
+{
+    size_t n = 0;
+    out[n++] = (uint64_t)s->level;
+    out[n++] = (uint64_t)s->set.count;
+    for (size_t i = 0; i < s->set.cap; i++)
+        if (s->set.slot[i] != WPD_VOXEL_KEY_EMPTY)
+            out[n++] = s->set.slot[i];
+    return n;
+}
+
+int wpd_ladder_pack(const wpd_ladder *l, uint8_t **buf, size_t *n)
+{
+    size_t words = 2 + l->all.set.count + (l->sampling ? 2 + l->sample.set.count : 0);
+    uint64_t *out = malloc(words * sizeof *out);
+    if (!out)
+        return -1;
+    size_t used = scale_pack(&l->all, out);
+    if (l->sampling)
+        used += scale_pack(&l->sample, out + used);
+    *buf = (uint8_t *)out;
+    *n = used * sizeof *out;
+    return 0;
+}
+
+/* Merges the scale packed at words[*at ..] into `into`. */
+static int scale_merge_packed(wpd_ladder_scale *into, const uint64_t *words, size_t nwords,
+                              size_t *at, size_t cap)
+{
+    if (nwords - *at < 2 || words[*at] > 64 || words[*at + 1] > nwords - *at - 2)
+        return -1;
+    wpd_ladder_scale from = {.level = (int)words[*at]};
+    size_t count = (size_t)words[*at + 1], slots = 1024;
+    while (slots < 2 * count)
+        slots <<= 1;
+    if (wpd_voxel_set_init(&from.set, slots))
+        return -1;
+    from.edge = ldexp(into->edge, from.level - into->level);
+    from.inv = 1.0 / from.edge;
+    const uint64_t *key = words + *at + 2;
+    int rc = 0;
+    for (size_t i = 0; i < count && rc == 0; i++)
+        rc = key[i] == WPD_VOXEL_KEY_EMPTY || wpd_voxel_set_put(&from.set, key[i]) ? -1 : 0;
+    if (rc == 0)
+        rc = scale_merge(into, &from, cap);
+    wpd_voxel_set_free(&from.set);
+    *at += 2 + count;
+    return rc;
+}
+
+int wpd_ladder_merge_packed(wpd_ladder *into, const uint8_t *buf, size_t n)
+{
+    if (n % sizeof(uint64_t))
+        return -1;
+    size_t nwords = n / sizeof(uint64_t), at = 0;
+    uint64_t *words = malloc(n ? n : 1);
+    if (!words)
+        return -1;
+    memcpy(words, buf, n); /* aligned */
+    into->last_block = WPD_VOXEL_KEY_EMPTY;
+    int rc = scale_merge_packed(&into->all, words, nwords, &at, into->cap);
+    if (rc == 0 && into->sampling)
+        rc = scale_merge_packed(&into->sample, words, nwords, &at, into->cap);
+    if (rc == 0 && at != nwords)
+        rc = -1;
+    free(words);
+    return rc;
 }
 
 void wpd_ladder_free(wpd_ladder *l)

@@ -87,6 +87,16 @@ int wpd_ladder_put(wpd_ladder *l, const double p[3]);
  * several threads and merged. Returns 0 or -1 (memory). */
 int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from);
 
+/* The voxels of l as bytes, for a ladder counted on another process (the
+ * ranks of an MPI run, par/par.h): *buf (malloc'd) of *n bytes. Returns 0
+ * or -1 (memory). */
+int wpd_ladder_pack(const wpd_ladder *l, uint8_t **buf, size_t *n);
+
+/* wpd_ladder_merge with a ladder packed by wpd_ladder_pack from a ladder
+ * initialised with the same arguments as `into`. Returns 0, or -1 (memory,
+ * or bytes that are no such ladder). */
+int wpd_ladder_merge_packed(wpd_ladder *into, const uint8_t *buf, size_t n);
+
 /* Counts per scale, finest first, into edge[] and m[] (WPD_MAX_SCALES
  * each); *nscales set, *nestimated of them (the first ones) estimated
  * from the sample, the others exact. The estimates are given only when

@@ -18,6 +18,7 @@ import test_edges  # noqa: E402
 import test_classes  # noqa: E402
 import test_laz  # noqa: E402
 import test_laz_write  # noqa: E402
+import test_mpi  # noqa: E402
 
 # The signal tests check what a signal does to wpd, which leaves a signal
 # the process ignores ignored (nohup). A suite started in the background by
@@ -29,4 +30,4 @@ for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
 
 sys.exit(harness.run([test_io, test_resample, test_engine, test_cli, test_faults,
                       test_faults_commands, test_driver, test_las_lenient, test_edges, test_classes,
-                      test_laz, test_laz_write]))
+                      test_laz, test_laz_write, test_mpi]))

@@ -162,6 +162,56 @@ TEST(pass_unordered_reads_each_point_once_and_stops_at_end)
     wpd_cloud_close(c);
 }
 
+/* Marks every point a lane sees by its record (its x). */
+static int on_mark(void *arg, wpd_pass_batch *pb, wpd_error *err)
+{
+    (void)err;
+    uint32_t *marks = arg;
+    for (size_t i = 0; i < pb->batch->n; i++)
+        __atomic_fetch_add(&marks[(uint64_t)pb->batch->xyz[3 * i]], 1, __ATOMIC_RELAXED);
+    return 0;
+}
+
+/* Shares of a pass (the ranks of an MPI run): the shares together see every
+ * finite point once, each share a part, in parallel and in serial reading,
+ * on any number of lanes; a shared pass leaves the cloud's counts alone. */
+TEST(pass_shares_see_every_point_once)
+{
+    enum { RECORDS = 250000, SHARES = 3 };
+    for (int ascii = 0; ascii <= 1; ascii++) {
+        wpd_error err = {0};
+        wpd_cloud *c = open_test_cloud(ascii, &err);
+        CHECK_MSG(c != NULL, "%s", err.msg);
+        uint32_t *marks = calloc(RECORDS, sizeof *marks);
+        for (int threads = 1; c && marks && threads <= 2; threads++) {
+            memset(marks, 0, RECORDS * sizeof *marks);
+            for (int k = 0; k < SHARES; k++) {
+                uint64_t before = 0;
+                for (int r = 0; r < RECORDS; r++)
+                    before += marks[r];
+                wpd_cloud_rewind(c, &err);
+                wpd_pass p = {.cloud = c, .threads = threads, .lane = on_mark, .arg = marks,
+                              .share = k, .shares = SHARES};
+                CHECK(wpd_pass_run(&p, &err) == 0);
+                uint64_t after = 0;
+                for (int r = 0; r < RECORDS; r++)
+                    after += marks[r];
+                CHECK_MSG(after > before && after - before < RECORDS / 2,
+                          "ascii %d, %d lanes, share %d: %llu points", ascii, threads, k,
+                          (unsigned long long)(after - before));
+                CHECK(wpd_cloud_dropped(c) == 0 && wpd_cloud_delivered(c, 0) == 0);
+            }
+            int wrong = 0;
+            for (uint64_t r = 0; r < RECORDS; r++)
+                wrong += marks[r] != (dropped_record(r) ? 0u : 1u);
+            CHECK_MSG(wrong == 0, "ascii %d, %d lanes: %d records not seen exactly once", ascii,
+                      threads, wrong);
+        }
+        free(marks);
+        wpd_cloud_close(c);
+    }
+}
+
 TEST(cloud_stretch_reads_stop_at_the_stretch_and_keep_counts)
 {
     wpd_error err = {0};

@@ -272,7 +272,7 @@ static int run_tiled(const scan *s, size_t target, const wpd_params *p, int min_
     const char *paths[1] = {path};
     wpd_cloud *cloud = wpd_cloud_open(paths, 1, &err);
     /* The result's runs outlive the directory: they go to the test's own. */
-    wpd_resample_options o = {target, (size_t)1 << 30, test_tmp_dir(), min_tiles, *p, NULL};
+    wpd_resample_options o = {target, (size_t)1 << 30, test_tmp_dir(), min_tiles, *p, NULL, NULL};
     int rc = cloud ? wpd_resample_run(cloud, &o, r, &err) : -1;
     if (rc < 0)
         fprintf(stderr, "  wpd_resample_run: %s\n", err.msg);
@@ -783,6 +783,77 @@ TEST(ladder_counts_exact_on_scan_lines)
     }
     wpd_ladder_free(&l);
     free(key);
+    free(xyz);
+}
+
+/* A ladder counted in parts on other processes and merged from its packed
+ * bytes (wpd_ladder_merge_packed, the ranks of an MPI run) gives the counts
+ * of one ladder over all points, exact and sampled scales alike; bytes that
+ * are no ladder are refused. */
+TEST(ladder_merge_packed_equals_one_ladder)
+{
+    enum { N = 300000, PARTS = 3 };
+    double *xyz = malloc(3 * (size_t)N * sizeof *xyz);
+    CHECK(xyz != NULL);
+    if (!xyz)
+        return;
+    uint64_t s = 5;
+    /* A surface, and above it (the second half of the points) a volume: the
+     * parts' ladders coarsen to different levels. */
+    for (size_t i = 0; i < N; i++) {
+        double u[3];
+        for (int k = 0; k < 3; k++) {
+            s = s * 6364136223846793005ull + 1442695040888963407ull;
+            u[k] = (double)(s >> 11) / (double)(1ull << 53) * 300.0;
+        }
+        xyz[3 * i] = u[0], xyz[3 * i + 1] = u[1];
+        xyz[3 * i + 2] = i < N / 2 ? 30 + 20 * sin(u[0] / 40) * cos(u[1] / 25) : u[2] / 5;
+    }
+    const double extent[3] = {300, 300, 60};
+    for (int sampled = 0; sampled <= 1; sampled++) {
+        /* Without the sample: a small cap, so the parts coarsen; with it, a
+         * cap whose sampled blocks hold enough voxels for an estimate. */
+        size_t cap = sampled ? 1 << 16 : 4096;
+        double wanted = sampled ? 1e7 : 100, e[2][WPD_MAX_SCALES];
+        uint64_t m[2][WPD_MAX_SCALES];
+        int n[2], k[2];
+        wpd_ladder one, part[PARTS];
+        CHECK(wpd_ladder_init(&one, extent, N, cap, wanted) == 0);
+        for (int p = 0; p < PARTS; p++)
+            CHECK(wpd_ladder_init(&part[p], extent, N, cap, wanted) == 0);
+        for (size_t i = 0; i < N; i++) {
+            CHECK(wpd_ladder_put(&one, xyz + 3 * i) == 0);
+            /* Parts of unequal sizes: they coarsen to different levels. */
+            int p = i < N / 100 ? 0 : i < N / 2 ? 1 : 2;
+            CHECK(wpd_ladder_put(&part[p], xyz + 3 * i) == 0);
+        }
+        CHECK(one.sampling == sampled);
+        CHECK_MSG(sampled || part[0].all.level < part[2].all.level,
+                  "levels %d %d %d", part[0].all.level, part[2].all.level, one.all.level);
+        for (int p = 1; p < PARTS; p++) {
+            uint8_t *buf = NULL;
+            size_t len = 0;
+            CHECK(wpd_ladder_pack(&part[p], &buf, &len) == 0);
+            CHECK(wpd_ladder_merge_packed(&part[0], buf, len) == 0);
+            if (p == 1 && len > 16) {
+                CHECK(wpd_ladder_merge_packed(&part[0], buf, len - 8) == -1); /* cut short */
+                ((uint64_t *)buf)[1] = UINT64_MAX / 16;                       /* a count that lies */
+                CHECK(wpd_ladder_merge_packed(&part[0], buf, len) == -1);
+            }
+            free(buf);
+        }
+        CHECK(wpd_ladder_finish(&one, e[0], m[0], &n[0], &k[0]) == 0);
+        CHECK(wpd_ladder_finish(&part[0], e[1], m[1], &n[1], &k[1]) == 0);
+        CHECK_MSG(n[0] == n[1] && k[0] == k[1], "sampled %d: %d/%d scales, %d/%d estimated",
+                  sampled, n[0], n[1], k[0], k[1]);
+        CHECK(sampled == (k[0] > 0));
+        for (int i = 0; i < n[0] && i < n[1]; i++)
+            CHECK_MSG(e[0][i] == e[1][i] && m[0][i] == m[1][i], "scale %d: %g %llu / %g %llu", i,
+                      e[0][i], (unsigned long long)m[0][i], e[1][i], (unsigned long long)m[1][i]);
+        wpd_ladder_free(&one);
+        for (int p = 0; p < PARTS; p++)
+            wpd_ladder_free(&part[p]);
+    }
     free(xyz);
 }
 

@@ -1,0 +1,104 @@
+"""End-to-end tests of wpd-mpi (make MPI=1): `mpirun -np K wpd-mpi resample`
+gives the plain binary's bytes for every K, and a rank that fails makes every
+rank exit with the documented code, leaving no output and no spill."""
+import filecmp
+import os
+import shutil
+import subprocess
+
+from harness import REPO, Skip, sanitized, wpd
+
+WPD_MPI = os.path.join(REPO, "wpd-mpi")
+
+
+def mpirun(ranks, *args, rank1_prefix=None, check=True):
+    """Runs wpd-mpi on `ranks` ranks. rank1_prefix: a shell command the
+    second rank runs wpd-mpi under (the other ranks run it plainly)."""
+    launcher = shutil.which("mpirun")
+    if not launcher or not os.path.exists(WPD_MPI):
+        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
+    if sanitized():
+        raise Skip("the sanitized run tests the plain binary")
+    base = [launcher, "--allow-run-as-root", "--oversubscribe"]
+    argv = [WPD_MPI, *map(str, args)]
+    if rank1_prefix is None:
+        cmd = base + ["-np", str(ranks)] + argv
+    else:
+        shell = rank1_prefix + " exec " + " ".join(argv)
+        cmd = base + ["-np", "1"] + argv + [":", "-np", "1", "sh", "-c", shell]
+        if ranks > 2:
+            cmd += [":", "-np", str(ranks - 2)] + argv
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if check and p.returncode != 0:
+        raise AssertionError("%s -> %d: %s" % (" ".join(cmd), p.returncode, p.stderr.strip()))
+    return p
+
+
+def synth(path, n, seed):
+    wpd("synth", "-n", n, "--seed", seed, "-o", path, "--force")
+
+
+def test_every_rank_count_gives_the_plain_bytes():
+    synth("in.las", 300000, 3)
+    os.makedirs("spill")
+    cases = [("in memory", ()), ("tiles", ("--min-tiles", 8)),
+             ("tiles, no smoothing", ("--min-tiles", 8, "--no-smooth"))]
+    for name, opts in cases:
+        wpd("resample", "in.las", "-o", "plain.las", "-n", 5000, "-q", "--force", *opts)
+        for ranks in (1, 2, 3, 4):
+            mpirun(ranks, "resample", "in.las", "-o", "mpi.las", "-n", 5000, "-q", "--force",
+                   "--tmpdir", "spill", *opts)
+            assert filecmp.cmp("plain.las", "mpi.las", shallow=False), (name, ranks)
+            assert os.listdir("spill") == [], (name, ranks, os.listdir("spill"))
+
+
+def test_ply_and_per_input_outputs_give_the_plain_bytes():
+    synth("a.las", 150000, 4)
+    synth("b.las", 120000, 5)
+    wpd("resample", "a.las", "-o", "plain.ply", "-n", 3000, "-q", "--min-tiles", 4)
+    mpirun(3, "resample", "a.las", "-o", "mpi.ply", "-n", 3000, "-q", "--min-tiles", 4)
+    assert filecmp.cmp("plain.ply", "mpi.ply", shallow=False)
+    for d in ("plain", "mpi"):
+        os.makedirs(d)
+    wpd("resample", "a.las", "b.las", "--per-input", "plain", "-n", 4000, "-q")
+    mpirun(2, "resample", "a.las", "b.las", "--per-input", "mpi", "-n", 4000, "-q")
+    assert sorted(os.listdir("plain")) == sorted(os.listdir("mpi")) == ["a.las", "b.las"]
+    for f in ("a.las", "b.las"):
+        assert filecmp.cmp(os.path.join("plain", f), os.path.join("mpi", f), shallow=False), f
+
+
+def test_one_summary_and_one_report_from_rank_0():
+    synth("in.las", 100000, 6)
+    p = mpirun(3, "resample", "in.las", "-o", "out.las", "-n", 2000, "-v", "--report", "r.json")
+    assert p.stdout.count("resampled 100000 -> 2000 points") == 1, p.stdout
+    assert os.path.exists("r.json") and os.path.exists("out.las")
+    p = mpirun(2, "info", "in.las")
+    assert p.stdout.count("format:") == 1, p.stdout
+
+
+def test_a_bad_input_fails_every_rank_with_code_2():
+    synth("in.las", 50000, 7)
+    with open("in.las", "rb") as f:
+        blob = f.read()
+    with open("cut.las", "wb") as f:
+        f.write(blob[: len(blob) // 2])
+    os.makedirs("spill")
+    p = mpirun(3, "resample", "cut.las", "-o", "out.las", "-n", 1000, "--tmpdir", "spill",
+               check=False)
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    assert "cut.las" in p.stderr
+    assert not os.path.exists("out.las") and os.listdir("spill") == []
+    assert sorted(os.listdir(".")) == ["cut.las", "in.las", "spill"], os.listdir(".")
+
+
+def test_one_rank_out_of_disk_fails_every_rank_with_code_3():
+    """The second rank's spill hits its file size limit (a full disk to it)
+    while the others go on: every rank exits 3, no output, no spill."""
+    synth("in.las", 300000, 8)
+    os.makedirs("spill")
+    p = mpirun(3, "resample", "in.las", "-o", "out.las", "-n", 3000, "--min-tiles", 8,
+               "--tmpdir", "spill", rank1_prefix="ulimit -f 64;", check=False)
+    assert p.returncode == 3, (p.returncode, p.stderr)
+    assert not os.path.exists("out.las"), os.listdir(".")
+    assert os.listdir("spill") == [], os.listdir("spill")
+    assert [f for f in os.listdir(".") if f.startswith("out")] == []
