@@ -124,8 +124,8 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     size_t room = mem > WPD_BUDGET_FIXED_BYTES ? mem - WPD_BUDGET_FIXED_BYTES : 0;
     double paper_frac = run->p->radius_method == WPD_RADIUS_PAPER ? run->p->voxel_frac : 0;
     double wanted = (double)run->opt->target / run->p->density;
-    if (wpd_scan_run(run->cloud, run->opt->par, WPD_LADDER_KEYS, wanted, paper_frac, run->threads, room,
-                     run->opt->progress, &run->scan, err))
+    if (wpd_scan_run(run->cloud, run->opt->par, WPD_LADDER_KEYS, wanted, paper_frac,
+                     run->threads, room, run->opt->progress, &run->scan, err))
         return -1;
     res->time.bounds = run->scan.bounds_seconds;
     res->time.scan = run->scan.scan_seconds;
@@ -155,7 +155,8 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     res->largest_tile = run->plan.largest;
     if (copy_tile_boxes(run))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    if (wpd_store_open(run, err))
+    if (wpd_store_open(run, err) ||
+        (wpd_par_ranks(run->opt->par) > 1 && wpd_run_assign_owners(run, err)))
         return -1;
     res->time.plan = omp_get_wtime() - t;
     return 0;
@@ -268,6 +269,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);
     wpd_scan_free(&run.scan);
+    free(run.owner);
     if (rc)
         wpd_resample_result_free(res);
     else

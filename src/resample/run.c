@@ -7,11 +7,28 @@
 
 #include "resample/budget.h"
 
-/* Every tile through fn: colour by colour when ordered (after_colour after
- * each), else all at once in one colour-blind loop. */
-static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
-                     wpd_colour_fn after_colour, void *arg, int ordered, wpd_error *err)
+/* After colour c: with the ranks sharing the tiles, each tile's samples go
+ * from its owner to every rank (ranks.c), agreeing first on the failure fe
+ * holds, if any. Returns 0, or -1 with the failure in fe. */
+static int share(wpd_run *run, int c, wpd_first_error *fe)
 {
+    wpd_error e = {0};
+    wpd_first_error_take(fe, &e);
+    if (wpd_run_share_colour(run, c, &e) == 0)
+        return 0;
+    wpd_first_error_keep(fe, &e);
+    return -1;
+}
+
+/* Every tile through fn: colour by colour when ordered (after_colour after
+ * each), else all at once in one colour-blind loop. shared (ordered only):
+ * each rank runs the tiles it owns, and after each colour every rank gets
+ * the others' samples of that colour. */
+static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                     wpd_colour_fn after_colour, void *arg, int ordered, int shared,
+                     wpd_error *err)
+{
+    shared = shared && run->owner;
     int ntiles = run->plan.ntiles;
     int workers = wpd_budget_tile_workers(run->threads, ntiles);
     int inside = wpd_budget_threads_per_tile(run->threads, ntiles);
@@ -19,10 +36,11 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
     wpd_first_error fe = {0};
     if (phase)
         wpd_progress_phase(run->opt->progress, phase, (uint64_t)ntiles, "tiles");
-    for (int c = 0; c < rounds && !wpd_first_error_failed(&fe); c++) {
+    for (int c = 0; c < rounds && (shared || !wpd_first_error_failed(&fe)); c++) {
 #pragma omp parallel for num_threads(workers) schedule(dynamic, 1)
         for (int t = 0; t < ntiles; t++) {
-            if ((ordered && run->plan.tiles[t].colour != c) || wpd_first_error_failed(&fe))
+            if ((ordered && run->plan.tiles[t].colour != c) || wpd_first_error_failed(&fe) ||
+                (shared && !wpd_run_owns(run, t)))
                 continue;
             wpd_error local = {0};
             if (fn(run, t, inside, arg, &local))
@@ -32,6 +50,8 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
         wpd_error local = {0};
         if (!wpd_first_error_failed(&fe) && after_colour && after_colour(run, c, arg, &local))
             wpd_first_error_keep(&fe, &local);
+        if (shared && share(run, c, &fe))
+            break;
     }
     if (phase)
         wpd_progress_end(run->opt->progress);
@@ -41,11 +61,17 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
 int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
                       wpd_colour_fn after_colour, void *arg, wpd_error *err)
 {
-    return run_tiles(run, phase, fn, after_colour, arg, 1, err);
+    return run_tiles(run, phase, fn, after_colour, arg, 1, 0, err);
+}
+
+int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
+                             wpd_error *err)
+{
+    return run_tiles(run, phase, fn, NULL, arg, 1, 1, err);
 }
 
 int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
                             wpd_error *err)
 {
-    return run_tiles(run, phase, fn, NULL, arg, 0, err);
+    return run_tiles(run, phase, fn, NULL, arg, 0, 0, err);
 }

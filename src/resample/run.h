@@ -48,6 +48,9 @@ typedef struct wpd_run {
     wpd_grid surface;         /* one in-memory tile: its surface grid, built before
                                  the Poisson passes, which run on it (empty otherwise) */
     wpd_resample_result *res;
+    int *owner;               /* [ntiles] the rank that runs each tile where the ranks
+                                 share the tiles (ranks.c), or NULL: this process
+                                 runs every tile */
 } wpd_run;
 
 /* Sizes s for n samples (edge labels when with_edge). Returns 0 or -1 (out
@@ -112,6 +115,26 @@ typedef int (*wpd_colour_fn)(wpd_run *run, int colour, void *arg, wpd_error *err
  * Returns 0, or -1 with the first failure in err. */
 int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
                       wpd_colour_fn after_colour, void *arg, wpd_error *err);
+
+/* wpd_run_each_tile with the tiles shared between the ranks of an MPI run
+ * (par/par.h): each rank runs the tiles it owns, and after each colour
+ * every rank's store gets the samples of the colour's tiles from their
+ * owners (wpd_run_share_colour), so fn must leave a tile's result in the
+ * store and nowhere else (counters in run->res: this rank's tiles only).
+ * Without owners, wpd_run_each_tile. */
+int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
+                             wpd_error *err);
+
+/* Ranks (ranks.c). The owner of each tile, for more than one rank:
+ * colour by colour, the largest tiles first, each to the rank with the
+ * fewest points of the colour so far (run->owner). Returns 0 or -1. */
+int wpd_run_assign_owners(wpd_run *run, wpd_error *err);
+/* Whether this rank runs tile t. */
+int wpd_run_owns(const wpd_run *run, int t);
+/* After the tiles of colour c ran: agrees on err (this rank's failure, or
+ * WPD_OK), then every rank gets each such tile's samples from its owner
+ * into its store. Returns 0, or -1 with err set (the failure agreed). */
+int wpd_run_share_colour(wpd_run *run, int colour, wpd_error *err);
 
 /* Runs fn on every tile in any order, as many at once as the threads and
  * the budget allow, without waiting between colours: for work whose result

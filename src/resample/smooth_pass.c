@@ -78,5 +78,20 @@ int wpd_smooth_phase(wpd_run *run, wpd_error *err)
     if (!run->p->smooth || run->p->iterations <= 0)
         return 0;
     run->res->moved = 1;
-    return wpd_run_each_tile(run, "smooth", smooth_tile, NULL, NULL, err);
+    if (wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, err))
+        return -1;
+    if (!run->owner)
+        return 0;
+    /* Each rank counted its own tiles' moves: the run's are their sums. */
+    wpd_resample_result *r = run->res;
+    size_t *count[] = {&r->open_cells, &r->pulled_to_surface, &r->non_surface, &r->isolated,
+                       &r->guarded_moves};
+    uint64_t sum[5];
+    for (int i = 0; i < 5; i++)
+        sum[i] = *count[i];
+    if (wpd_par_sum_u64(run->opt->par, sum, 5, err))
+        return -1;
+    for (int i = 0; i < 5; i++)
+        *count[i] = (size_t)sum[i];
+    return 0;
 }
