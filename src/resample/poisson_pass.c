@@ -468,6 +468,49 @@ static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
     return rc;
 }
 
+/* With the tiles shared between ranks (run.h): what a tile's run leaves
+ * beside its samples - its UNKNOWN own points, its decisions about other
+ * tiles' (hand_back applies them on every rank alike) and that it ran. */
+static void pack_tile_state(const wpd_run *run, int t, void *arg, wpd_bytes *out)
+{
+    (void)run;
+    const pass_ctx *pc = arg;
+    const foreign *f = &pc->foreign[t];
+    wpd_samples_pack(&pc->unknown[t], out);
+    wpd_tile_samples theirs = {f->n, f->gid, f->xyz, f->edge};
+    wpd_samples_pack(&theirs, out);
+    wpd_bytes_put(out, f->kept, f->n);
+    wpd_bytes_put(out, f->owner, f->n * sizeof *f->owner);
+    wpd_bytes_put(out, &pc->processed[t], 1);
+}
+
+static int unpack_tile_state(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err)
+{
+    pass_ctx *pc = arg;
+    foreign *f = &pc->foreign[t];
+    wpd_tile_samples theirs;
+    wpd_samples_free(&pc->unknown[t]);
+    foreign_free(f);
+    if (wpd_samples_unpack(&pc->unknown[t], in) || wpd_samples_unpack(&theirs, in))
+        goto bad;
+    f->n = theirs.n, f->gid = theirs.gid, f->xyz = theirs.xyz, f->edge = theirs.edge;
+    f->kept = malloc(f->n ? f->n : 1);
+    f->owner = malloc((f->n ? f->n : 1) * sizeof *f->owner);
+    if (!f->kept || !f->owner || wpd_bytes_get(in, f->kept, f->n) ||
+        wpd_bytes_get(in, f->owner, f->n * sizeof *f->owner) ||
+        wpd_bytes_get(in, &pc->processed[t], 1))
+        goto bad;
+    for (size_t i = 0; i < f->n; i++)
+        if (f->owner[i] < 0 || f->owner[i] >= run->plan.ntiles)
+            goto bad;
+    return 0;
+bad:
+    return wpd_fail(err, in->bad ? WPD_E_IO : WPD_E_MEMORY, "tile %d's Poisson state from "
+                    "another rank: %s", t, in->bad ? "does not add up" : "out of memory");
+}
+
+static const wpd_tile_share tile_state = {pack_tile_state, unpack_tile_state};
+
 /* One tile of a round of the pass at radius pc->r. */
 static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -582,8 +625,8 @@ static int full_pass(wpd_run *run, pass_ctx *pc, size_t *count, wpd_error *err)
             if (pc->round == MAX_ROUNDS)
                 return wpd_fail(err, WPD_E_USAGE, "poisson: %zu points still undecided after "
                                 "%d rounds (a bug)", unknown_count(run, pc), MAX_ROUNDS);
-            if (wpd_run_each_tile(run, pc->round ? NULL : "poisson", certain_tile, hand_back, pc,
-                                  err))
+            if (wpd_run_each_tile_shared(run, pc->round ? NULL : "poisson", certain_tile,
+                                         hand_back, &tile_state, pc, err))
                 return -1;
         }
         run->res->resolution_rounds += pc->round - 1;
@@ -640,6 +683,14 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
     }
     pass_ctx_free(run, &pc);
     run->res->poisson_count = wpd_run_store_count(run);
+    if (rc == 0 && run->owner && run->plan.ntiles > 1) {
+        /* Each rank counted its own tiles' (one tile in memory: all ranks
+         * ran it) */
+        uint64_t sum[2] = {(uint64_t)run->res->resolution_tiles, run->res->sharp_points};
+        rc = wpd_par_sum_u64(run->opt->par, sum, 2, err);
+        run->res->resolution_tiles = (int)sum[0];
+        run->res->sharp_points = sum[1];
+    }
     return rc;
 }
 

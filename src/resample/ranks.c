@@ -56,110 +56,101 @@ int wpd_run_owns(const wpd_run *run, int t)
     return !run->owner || run->owner[t] == wpd_par_rank(run->opt->par);
 }
 
-/* A tile's samples as bytes: tile, count, whether labelled, then the
- * global indices, coordinates and labels. */
-typedef struct packed_head {
-    uint64_t tile, n, labelled;
-} packed_head;
-
-static size_t packed_bytes(size_t n, int labelled)
+void wpd_samples_pack(const wpd_tile_samples *s, wpd_bytes *out)
 {
-    return sizeof(packed_head) + n * (sizeof(uint64_t) + 3 * sizeof(double)) +
-           (labelled ? n : 0);
+    wpd_bytes_put_u64(out, s->n);
+    wpd_bytes_put_u64(out, s->edge != NULL);
+    wpd_bytes_put(out, s->gid, s->n * sizeof *s->gid);
+    wpd_bytes_put(out, s->xyz, 3 * s->n * sizeof *s->xyz);
+    if (s->edge)
+        wpd_bytes_put(out, s->edge, s->n);
 }
 
-/* Appends tile t's samples (as its store holds them: in memory or in its
- * files) to *buf. */
-static int pack_tile(wpd_run *run, int t, uint8_t **buf, size_t *len, size_t *cap,
-                     wpd_error *err)
+int wpd_samples_unpack(wpd_tile_samples *s, wpd_bytes_in *in)
+{
+    uint64_t n = wpd_bytes_get_u64(in), labelled = wpd_bytes_get_u64(in);
+    /* Each sample takes 32 bytes at least: a count beyond that lies. */
+    if (in->bad || n > wpd_bytes_left(in) / 32 || labelled > 1)
+        return -1;
+    if (wpd_samples_alloc(s, (size_t)n, labelled != 0))
+        return -1;
+    s->n = (size_t)n;
+    if (wpd_bytes_get(in, s->gid, s->n * sizeof *s->gid) ||
+        wpd_bytes_get(in, s->xyz, 3 * s->n * sizeof *s->xyz) ||
+        (s->edge && wpd_bytes_get(in, s->edge, s->n))) {
+        wpd_samples_free(s);
+        return -1;
+    }
+    return 0;
+}
+
+/* Appends tile t (its number, its samples as its store holds them - in
+ * memory or in its files - and what the phase adds) to out. */
+static int pack_tile(wpd_run *run, int t, const wpd_tile_share *extra, void *arg,
+                     wpd_bytes *out, wpd_error *err)
 {
     wpd_tile_samples s = {0};
-    const wpd_tile_samples *src = &run->store[t];
-    if (run->files) {
-        if (wpd_runs_read(run->files, t, &s.gid, &s.xyz, &s.edge, &s.n, err))
-            return -1;
-        src = &s;
-    }
-    size_t need = packed_bytes(src->n, src->edge != NULL);
-    if (*len + need > *cap) {
-        size_t grown = 2 * (*cap + need);
-        uint8_t *b = realloc(*buf, grown);
-        if (!b) {
-            wpd_samples_free(&s);
-            return wpd_fail(err, WPD_E_MEMORY, "out of memory for the samples between ranks");
-        }
-        *buf = b, *cap = grown;
-    }
-    packed_head h = {(uint64_t)t, src->n, src->edge != NULL};
-    uint8_t *p = *buf + *len;
-    memcpy(p, &h, sizeof h);
-    p += sizeof h;
-    memcpy(p, src->gid, src->n * sizeof *src->gid);
-    p += src->n * sizeof *src->gid;
-    memcpy(p, src->xyz, 3 * src->n * sizeof *src->xyz);
-    p += 3 * src->n * sizeof *src->xyz;
-    if (src->edge)
-        memcpy(p, src->edge, src->n);
-    *len += need;
+    if (run->files && wpd_runs_read(run->files, t, &s.gid, &s.xyz, &s.edge, &s.n, err))
+        return -1;
+    wpd_bytes_put_u64(out, (uint64_t)t);
+    wpd_samples_pack(run->files ? &s : &run->store[t], out);
     wpd_samples_free(&s);
+    if (extra && extra->pack)
+        extra->pack(run, t, arg, out);
+    if (out->failed)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the samples between ranks");
     return 0;
 }
 
-/* Puts the tiles packed in buf[0..len) into this rank's store. */
-static int unpack_tiles(wpd_run *run, const uint8_t *buf, size_t len, wpd_error *err)
+/* Puts the tiles packed in in into this rank's store (and the phase's
+ * state). */
+static int unpack_tiles(wpd_run *run, const wpd_tile_share *extra, void *arg, wpd_bytes_in *in,
+                        wpd_error *err)
 {
-    size_t at = 0;
-    while (at < len) {
-        packed_head h;
-        if (len - at < sizeof h)
-            return wpd_fail(err, WPD_E_IO, "samples from another rank cut short");
-        memcpy(&h, buf + at, sizeof h);
-        if (h.tile >= (uint64_t)run->plan.ntiles || h.n > (len - at) / 32 ||
-            packed_bytes((size_t)h.n, h.labelled != 0) > len - at)
+    while (wpd_bytes_left(in) > 0) {
+        uint64_t t = wpd_bytes_get_u64(in);
+        if (in->bad || t >= (uint64_t)run->plan.ntiles)
             return wpd_fail(err, WPD_E_IO, "samples from another rank do not add up");
-        int t = (int)h.tile;
-        size_t step = packed_bytes((size_t)h.n, h.labelled != 0);
-        const uint8_t *p = buf + at + sizeof h;
         wpd_tile_samples *s = &run->store[t];
         wpd_samples_free(s);
-        if (wpd_samples_alloc(s, (size_t)h.n, h.labelled != 0))
-            return wpd_fail(err, WPD_E_MEMORY, "out of memory for the samples between ranks");
-        s->n = (size_t)h.n;
-        memcpy(s->gid, p, s->n * sizeof *s->gid);
-        p += s->n * sizeof *s->gid;
-        memcpy(s->xyz, p, 3 * s->n * sizeof *s->xyz);
-        p += 3 * s->n * sizeof *s->xyz;
-        if (s->edge)
-            memcpy(s->edge, p, s->n);
-        if (wpd_store_save(run, t, err)) /* in files: written, let go */
+        if (wpd_samples_unpack(s, in))
+            return wpd_fail(err, in->bad ? WPD_E_IO : WPD_E_MEMORY,
+                            in->bad ? "samples from another rank do not add up"
+                                    : "out of memory for the samples between ranks");
+        if (wpd_store_save(run, (int)t, err)) /* in files: written, let go */
             return -1;
-        at += step;
+        if (extra && extra->unpack && extra->unpack(run, (int)t, arg, in, err))
+            return -1;
     }
     return 0;
 }
 
-int wpd_run_share_colour(wpd_run *run, int colour, wpd_error *err)
+int wpd_run_share_colour(wpd_run *run, int colour, const wpd_tile_share *extra, void *arg,
+                         wpd_error *err)
 {
     const wpd_par *par = run->opt->par;
-    uint8_t *mine = NULL, *all = NULL;
-    size_t len = 0, cap = 0, ranks = (size_t)wpd_par_ranks(par);
+    wpd_bytes mine = {0};
+    uint8_t *all = NULL;
+    size_t ranks = (size_t)wpd_par_ranks(par);
     size_t *off = calloc(ranks, sizeof *off), *part = calloc(ranks, sizeof *part);
     if (err->code == WPD_OK && (!off || !part))
         wpd_fail(err, WPD_E_MEMORY, "out of memory");
     for (int t = 0; err->code == WPD_OK && t < run->plan.ntiles; t++)
         if (run->plan.tiles[t].colour == colour && wpd_run_owns(run, t))
-            pack_tile(run, t, &mine, &len, &cap, err);
+            pack_tile(run, t, extra, arg, &mine, err);
     int rc = -1;
-    if (wpd_par_agree(par, err) || wpd_par_gather_all(par, mine, len, &all, off, part, err))
+    if (wpd_par_agree(par, err) ||
+        wpd_par_gather_all(par, mine.p, mine.len, &all, off, part, err))
         goto done;
-    free(mine);
-    mine = NULL;
-    for (size_t k = 0; k < ranks; k++)
-        if (k != (size_t)wpd_par_rank(par) && unpack_tiles(run, all + off[k], part[k], err))
+    wpd_bytes_free(&mine);
+    for (size_t k = 0; k < ranks; k++) {
+        wpd_bytes_in in = {all + off[k], part[k], 0, 0};
+        if (k != (size_t)wpd_par_rank(par) && unpack_tiles(run, extra, arg, &in, err))
             goto done;
+    }
     rc = 0;
 done:
-    free(mine);
+    wpd_bytes_free(&mine);
     free(all);
     free(off);
     free(part);

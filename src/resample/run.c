@@ -10,11 +10,12 @@
 /* After colour c: with the ranks sharing the tiles, each tile's samples go
  * from its owner to every rank (ranks.c), agreeing first on the failure fe
  * holds, if any. Returns 0, or -1 with the failure in fe. */
-static int share(wpd_run *run, int c, wpd_first_error *fe)
+static int share(wpd_run *run, int c, const wpd_tile_share *extra, void *arg,
+                 wpd_first_error *fe)
 {
     wpd_error e = {0};
     wpd_first_error_take(fe, &e);
-    if (wpd_run_share_colour(run, c, &e) == 0)
+    if (wpd_run_share_colour(run, c, extra, arg, &e) == 0)
         return 0;
     wpd_first_error_keep(fe, &e);
     return -1;
@@ -26,7 +27,7 @@ static int share(wpd_run *run, int c, wpd_first_error *fe)
  * the others' samples of that colour. */
 static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
                      wpd_colour_fn after_colour, void *arg, int ordered, int shared,
-                     wpd_error *err)
+                     const wpd_tile_share *extra, wpd_error *err)
 {
     shared = shared && run->owner;
     int ntiles = run->plan.ntiles;
@@ -47,11 +48,11 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
                 wpd_first_error_keep(&fe, &local);
             wpd_progress_add(run->opt->progress, 1);
         }
+        if (shared && share(run, c, extra, arg, &fe))
+            break;
         wpd_error local = {0};
         if (!wpd_first_error_failed(&fe) && after_colour && after_colour(run, c, arg, &local))
             wpd_first_error_keep(&fe, &local);
-        if (shared && share(run, c, &fe))
-            break;
     }
     if (phase)
         wpd_progress_end(run->opt->progress);
@@ -61,17 +62,18 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
 int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
                       wpd_colour_fn after_colour, void *arg, wpd_error *err)
 {
-    return run_tiles(run, phase, fn, after_colour, arg, 1, 0, err);
+    return run_tiles(run, phase, fn, after_colour, arg, 1, 0, NULL, err);
 }
 
-int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
-                             wpd_error *err)
+int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                             wpd_colour_fn after_colour, const wpd_tile_share *extra,
+                             void *arg, wpd_error *err)
 {
-    return run_tiles(run, phase, fn, NULL, arg, 1, 1, err);
+    return run_tiles(run, phase, fn, after_colour, arg, 1, 1, extra, err);
 }
 
 int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
                             wpd_error *err)
 {
-    return run_tiles(run, phase, fn, NULL, arg, 0, 0, err);
+    return run_tiles(run, phase, fn, NULL, arg, 0, 0, NULL, err);
 }

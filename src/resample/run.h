@@ -10,6 +10,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/bytes.h"
 #include "common/first_error.h"
 #include "resample/plan.h"
 #include "resample/resample.h"
@@ -116,14 +117,25 @@ typedef int (*wpd_colour_fn)(wpd_run *run, int colour, void *arg, wpd_error *err
 int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
                       wpd_colour_fn after_colour, void *arg, wpd_error *err);
 
+/* What a phase keeps about a tile beside its samples, handed between the
+ * ranks with them: pack appends it to out (a failure shows in out->failed),
+ * unpack takes it from in on another rank (0, or -1 with err set). */
+typedef struct wpd_tile_share {
+    void (*pack)(const wpd_run *run, int t, void *arg, wpd_bytes *out);
+    int (*unpack)(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err);
+} wpd_tile_share;
+
 /* wpd_run_each_tile with the tiles shared between the ranks of an MPI run
  * (par/par.h): each rank runs the tiles it owns, and after each colour
- * every rank's store gets the samples of the colour's tiles from their
- * owners (wpd_run_share_colour), so fn must leave a tile's result in the
- * store and nowhere else (counters in run->res: this rank's tiles only).
+ * every rank gets the colour's tiles from their owners
+ * (wpd_run_share_colour): their samples into its store, and through extra
+ * (may be NULL) the phase's state of each tile; then after_colour runs on
+ * every rank alike. So fn must leave a tile's result in the store and in
+ * what extra carries (counters in run->res: this rank's tiles only).
  * Without owners, wpd_run_each_tile. */
-int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
-                             wpd_error *err);
+int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                             wpd_colour_fn after_colour, const wpd_tile_share *extra,
+                             void *arg, wpd_error *err);
 
 /* Ranks (ranks.c). The owner of each tile, for more than one rank:
  * colour by colour, the largest tiles first, each to the rank with the
@@ -134,7 +146,12 @@ int wpd_run_owns(const wpd_run *run, int t);
 /* After the tiles of colour c ran: agrees on err (this rank's failure, or
  * WPD_OK), then every rank gets each such tile's samples from its owner
  * into its store. Returns 0, or -1 with err set (the failure agreed). */
-int wpd_run_share_colour(wpd_run *run, int colour, wpd_error *err);
+int wpd_run_share_colour(wpd_run *run, int colour, const wpd_tile_share *extra, void *arg,
+                         wpd_error *err);
+/* A tile's samples as bytes, and back (0, or -1: out of memory or bytes
+ * that are no samples; in->bad tells which). */
+void wpd_samples_pack(const wpd_tile_samples *s, wpd_bytes *out);
+int wpd_samples_unpack(wpd_tile_samples *s, wpd_bytes_in *in);
 
 /* Runs fn on every tile in any order, as many at once as the threads and
  * the budget allow, without waiting between colours: for work whose result

@@ -78,7 +78,7 @@ int wpd_smooth_phase(wpd_run *run, wpd_error *err)
     if (!run->p->smooth || run->p->iterations <= 0)
         return 0;
     run->res->moved = 1;
-    if (wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, err))
+    if (wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, NULL, NULL, err))
         return -1;
     if (!run->owner)
         return 0;

@@ -52,6 +52,26 @@ def test_every_rank_count_gives_the_plain_bytes():
             assert os.listdir("spill") == [], (name, ranks, os.listdir("spill"))
 
 
+def test_poisson_rounds_across_ranks_give_the_plain_bytes():
+    """A chain of decisions past the halo: tiles re-run in further rounds,
+    with other ranks' decisions handed back."""
+    import json
+    synth("in.las", 300000, 1)
+    opts = ("-n", 20000, "--min-tiles", 32, "-q", "--force")
+    wpd("resample", "in.las", "-o", "plain.las", "--report", "plain.json", *opts)
+    with open("plain.json") as f:
+        plain = json.load(f)
+    assert plain["resolution_rounds"] > 0, plain["resolution_rounds"]
+    for ranks in (2, 3):
+        mpirun(ranks, "resample", "in.las", "-o", "mpi.las", "--report", "mpi.json", *opts)
+        assert filecmp.cmp("plain.las", "mpi.las", shallow=False), ranks
+        with open("mpi.json") as f:
+            mine = json.load(f)
+        for key in ("resolution_rounds", "resolution_tiles", "exact_sweeps", "exact_rounds",
+                    "guarded_moves", "poisson_points"):
+            assert mine[key] == plain[key], (ranks, key, mine[key], plain[key])
+
+
 def test_ply_and_per_input_outputs_give_the_plain_bytes():
     synth("a.las", 150000, 4)
     synth("b.las", 120000, 5)
