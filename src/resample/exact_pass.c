@@ -154,6 +154,47 @@ done:
     return rc;
 }
 
+/* With the tiles shared between ranks (run.h): a tile's costs, from the
+ * rank that computed them to every other (the samples stay as they are). */
+static void pack_costs(const wpd_run *run, int t, void *arg, wpd_bytes *out)
+{
+    (void)run;
+    exact_sweep *sw = arg;
+    exact_tile *x = &sw->tile[t];
+    wpd_error err = {0};
+    if (x->n == 0)
+        return;
+    if (wpd_exact_hold(sw, t, EF_COSTS, &err)) {
+        out->failed = 1;
+        return;
+    }
+    wpd_bytes_put(out, x->cost, x->n * sizeof *x->cost);
+    wpd_bytes_put(out, x->nn, x->n * sizeof *x->nn);
+    if (x->half)
+        wpd_bytes_put(out, x->half, x->n);
+    wpd_exact_let_go(sw, t, EF_COSTS);
+}
+
+static int unpack_costs(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err)
+{
+    (void)run;
+    exact_sweep *sw = arg;
+    exact_tile *x = &sw->tile[t];
+    if (x->n == 0)
+        return 0;
+    if (wpd_exact_alloc(sw, t, EF_COSTS, err))
+        return -1;
+    if (wpd_bytes_get(in, x->cost, x->n * sizeof *x->cost) ||
+        wpd_bytes_get(in, x->nn, x->n * sizeof *x->nn) ||
+        (x->half && wpd_bytes_get(in, x->half, x->n))) {
+        wpd_exact_let_go(sw, t, EF_COSTS);
+        return wpd_fail(err, WPD_E_IO, "tile %d's costs from another rank cut short", t);
+    }
+    return wpd_exact_keep(sw, t, EF_COSTS, err);
+}
+
+static const wpd_tile_share costs_share = {pack_costs, unpack_costs, 1};
+
 /* ------------------------------------------------------------ step 2 */
 
 typedef enum { KEY_COST, KEY_NEAREST, KEY_TAKEN_RANK, KEY_TAKEN_GID } key_kind;
@@ -391,7 +432,7 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
     wpd_run *run = sw->run;
     for (int t = 0; t < run->plan.ntiles; t++)
         sw->tile[t].n = wpd_store_count(run, t);
-    if (wpd_run_tiles_any_order(run, NULL, cost_tile, sw, err))
+    if (wpd_run_tiles_any_order_shared(run, NULL, cost_tile, &costs_share, sw, err))
         return -1;
     size_t quota = live - target;
     size_t bound = quota + (quota < live / 20 ? quota : live / 20);

@@ -509,7 +509,7 @@ bad:
                     "another rank: %s", t, in->bad ? "does not add up" : "out of memory");
 }
 
-static const wpd_tile_share tile_state = {pack_tile_state, unpack_tile_state};
+static const wpd_tile_share tile_state = {pack_tile_state, unpack_tile_state, 0};
 
 /* One tile of a round of the pass at radius pc->r. */
 static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)

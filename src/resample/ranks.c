@@ -90,10 +90,13 @@ static int pack_tile(wpd_run *run, int t, const wpd_tile_share *extra, void *arg
                      wpd_bytes *out, wpd_error *err)
 {
     wpd_tile_samples s = {0};
-    if (run->files && wpd_runs_read(run->files, t, &s.gid, &s.xyz, &s.edge, &s.n, err))
+    int samples = !extra || !extra->keep_samples;
+    if (samples && run->files &&
+        wpd_runs_read(run->files, t, &s.gid, &s.xyz, &s.edge, &s.n, err))
         return -1;
     wpd_bytes_put_u64(out, (uint64_t)t);
-    wpd_samples_pack(run->files ? &s : &run->store[t], out);
+    if (samples)
+        wpd_samples_pack(run->files ? &s : &run->store[t], out);
     wpd_samples_free(&s);
     if (extra && extra->pack)
         extra->pack(run, t, arg, out);
@@ -112,13 +115,15 @@ static int unpack_tiles(wpd_run *run, const wpd_tile_share *extra, void *arg, wp
         if (in->bad || t >= (uint64_t)run->plan.ntiles)
             return wpd_fail(err, WPD_E_IO, "samples from another rank do not add up");
         wpd_tile_samples *s = &run->store[t];
-        wpd_samples_free(s);
-        if (wpd_samples_unpack(s, in))
-            return wpd_fail(err, in->bad ? WPD_E_IO : WPD_E_MEMORY,
-                            in->bad ? "samples from another rank do not add up"
-                                    : "out of memory for the samples between ranks");
-        if (wpd_store_save(run, (int)t, err)) /* in files: written, let go */
-            return -1;
+        if (!extra || !extra->keep_samples) {
+            wpd_samples_free(s);
+            if (wpd_samples_unpack(s, in))
+                return wpd_fail(err, in->bad ? WPD_E_IO : WPD_E_MEMORY,
+                                in->bad ? "samples from another rank do not add up"
+                                        : "out of memory for the samples between ranks");
+            if (wpd_store_save(run, (int)t, err)) /* in files: written, let go */
+                return -1;
+        }
         if (extra && extra->unpack && extra->unpack(run, (int)t, arg, in, err))
             return -1;
     }
@@ -136,7 +141,7 @@ int wpd_run_share_colour(wpd_run *run, int colour, const wpd_tile_share *extra, 
     if (err->code == WPD_OK && (!off || !part))
         wpd_fail(err, WPD_E_MEMORY, "out of memory");
     for (int t = 0; err->code == WPD_OK && t < run->plan.ntiles; t++)
-        if (run->plan.tiles[t].colour == colour && wpd_run_owns(run, t))
+        if ((colour < 0 || run->plan.tiles[t].colour == colour) && wpd_run_owns(run, t))
             pack_tile(run, t, extra, arg, &mine, err);
     int rc = -1;
     if (wpd_par_agree(par, err) ||

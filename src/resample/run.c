@@ -22,9 +22,9 @@ static int share(wpd_run *run, int c, const wpd_tile_share *extra, void *arg,
 }
 
 /* Every tile through fn: colour by colour when ordered (after_colour after
- * each), else all at once in one colour-blind loop. shared (ordered only):
- * each rank runs the tiles it owns, and after each colour every rank gets
- * the others' samples of that colour. */
+ * each), else all at once in one colour-blind loop. shared: each rank runs
+ * the tiles it owns, and after each colour (unordered: after all tiles)
+ * every rank gets the others' tiles. */
 static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
                      wpd_colour_fn after_colour, void *arg, int ordered, int shared,
                      const wpd_tile_share *extra, wpd_error *err)
@@ -48,7 +48,7 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
                 wpd_first_error_keep(&fe, &local);
             wpd_progress_add(run->opt->progress, 1);
         }
-        if (shared && share(run, c, extra, arg, &fe))
+        if (shared && share(run, ordered ? c : -1, extra, arg, &fe))
             break;
         wpd_error local = {0};
         if (!wpd_first_error_failed(&fe) && after_colour && after_colour(run, c, arg, &local))
@@ -70,6 +70,12 @@ int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
                              void *arg, wpd_error *err)
 {
     return run_tiles(run, phase, fn, after_colour, arg, 1, 1, extra, err);
+}
+
+int wpd_run_tiles_any_order_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                                   const wpd_tile_share *extra, void *arg, wpd_error *err)
+{
+    return run_tiles(run, phase, fn, NULL, arg, 0, 1, extra, err);
 }
 
 int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,

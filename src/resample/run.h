@@ -123,6 +123,8 @@ int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
 typedef struct wpd_tile_share {
     void (*pack)(const wpd_run *run, int t, void *arg, wpd_bytes *out);
     int (*unpack)(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err);
+    int keep_samples;         /* 1: the phase leaves the samples as they were (every
+                                 rank has them already): only pack/unpack travel */
 } wpd_tile_share;
 
 /* wpd_run_each_tile with the tiles shared between the ranks of an MPI run
@@ -137,15 +139,22 @@ int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
                              wpd_colour_fn after_colour, const wpd_tile_share *extra,
                              void *arg, wpd_error *err);
 
+/* wpd_run_tiles_any_order with the tiles shared between the ranks: each
+ * rank runs its own, then every rank gets every other tile from its owner
+ * as wpd_run_each_tile_shared hands them on. */
+int wpd_run_tiles_any_order_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
+                                   const wpd_tile_share *extra, void *arg, wpd_error *err);
+
 /* Ranks (ranks.c). The owner of each tile, for more than one rank:
  * colour by colour, the largest tiles first, each to the rank with the
  * fewest points of the colour so far (run->owner). Returns 0 or -1. */
 int wpd_run_assign_owners(wpd_run *run, wpd_error *err);
 /* Whether this rank runs tile t. */
 int wpd_run_owns(const wpd_run *run, int t);
-/* After the tiles of colour c ran: agrees on err (this rank's failure, or
- * WPD_OK), then every rank gets each such tile's samples from its owner
- * into its store. Returns 0, or -1 with err set (the failure agreed). */
+/* After the tiles of colour c (-1: all tiles) ran: agrees on err (this
+ * rank's failure, or WPD_OK), then every rank gets each such tile's
+ * samples from its owner into its store, and extra's state. Returns 0, or
+ * -1 with err set (the failure agreed). */
 int wpd_run_share_colour(wpd_run *run, int colour, const wpd_tile_share *extra, void *arg,
                          wpd_error *err);
 /* A tile's samples as bytes, and back (0, or -1: out of memory or bytes
