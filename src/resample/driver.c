@@ -162,6 +162,19 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     return 0;
 }
 
+/* Where the ranks share the tiles, each spilled its own: the run's spill
+ * is their sum. */
+static int sum_spill_stats(wpd_run *run, wpd_error *err)
+{
+    wpd_spill_stats *st = &run->res->spill;
+    uint64_t sum[3] = {st->points, st->raw_bytes, st->disk_bytes};
+    wpd_error_clear(err);
+    if (wpd_par_agree(run->opt->par, err) || wpd_par_sum_u64(run->opt->par, sum, 3, err))
+        return -1;
+    st->points = sum[0], st->raw_bytes = sum[1], st->disk_bytes = sum[2];
+    return 0;
+}
+
 static int tile_phase(wpd_run *run, wpd_error *err)
 {
     double t = omp_get_wtime();
@@ -176,7 +189,7 @@ static int tile_phase(wpd_run *run, wpd_error *err)
     wpd_progress_end(run->opt->progress);
     wpd_tiles_stats(&run->tiles, &run->res->spill);
     run->res->time.tile = omp_get_wtime() - t;
-    return 0;
+    return run->owner && !run->res->in_memory ? sum_spill_stats(run, err) : 0;
 }
 
 static int finish(wpd_run *run, wpd_error *err)

@@ -12,7 +12,7 @@ int wpd_run_assign_owners(wpd_run *run, wpd_error *err)
 {
     int ntiles = run->plan.ntiles, ranks = wpd_par_ranks(run->opt->par);
     run->owner = calloc((size_t)(ntiles ? ntiles : 1), sizeof *run->owner);
-    uint64_t *load = calloc((size_t)ranks, sizeof *load);
+    uint64_t *load = calloc(2 * (size_t)ranks, sizeof *load), *total = load + ranks;
     int *order = malloc((size_t)(ntiles ? ntiles : 1) * sizeof *order);
     if (!run->owner || !load || !order) {
         free(load);
@@ -21,8 +21,9 @@ int wpd_run_assign_owners(wpd_run *run, wpd_error *err)
     }
     /* Colour by colour (the ranks work on one colour at a time), largest
      * tile first, each to the rank with the fewest points of that colour so
-     * far, the lower rank on a tie: the owners depend on the plan and the
-     * number of ranks only. */
+     * far, on a tie the one with the fewest points of all colours (a colour
+     * of one tile goes to each rank in turn), then the lower rank: the
+     * owners depend on the plan and the number of ranks only. */
     for (int c = 0; c < run->plan.ncolours; c++) {
         int m = 0;
         for (int t = 0; t < ntiles; t++)
@@ -40,10 +41,11 @@ int wpd_run_assign_owners(wpd_run *run, wpd_error *err)
         for (int i = 0; i < m; i++) {
             int best = 0;
             for (int k = 1; k < ranks; k++)
-                if (load[k] < load[best])
+                if (load[k] < load[best] || (load[k] == load[best] && total[k] < total[best]))
                     best = k;
             run->owner[order[i]] = best;
             load[best] += run->plan.tiles[order[i]].points + 1;
+            total[best] += run->plan.tiles[order[i]].points + 1;
         }
     }
     free(load);

@@ -78,6 +78,14 @@ static int route_point(routing *r, uint32_t tile, uint32_t point, uint8_t halo)
     return 0;
 }
 
+/* Whether this process keeps tile t's points: all of them, but where the
+ * ranks of an MPI run share the tiles, only those of its own tiles (the one
+ * tile in memory: every rank loads it). */
+static int kept_here(const wpd_run *e, int t)
+{
+    return !e->owner || e->res->in_memory || wpd_run_owns(e, t);
+}
+
 /* Destinations of every point of the batch (frame coordinates in fxyz). */
 static int route_batch(const wpd_run *e, const double *fxyz, size_t n, routing *r)
 {
@@ -88,13 +96,13 @@ static int route_batch(const wpd_run *e, const double *fxyz, size_t n, routing *
         const double *p = fxyz + 3 * i;
         int home = pl->cell_tile[wpd_scan_cell_of(&e->scan, p)];
         const wpd_tile *t = &pl->tiles[home];
-        if (route_point(r, (uint32_t)home, (uint32_t)i, 0))
+        if (kept_here(e, home) && route_point(r, (uint32_t)home, (uint32_t)i, 0))
             return -1;
         if (deep_inside(t, p, pl->halo))
             continue;
         for (int j = 0; j < t->nadj; j++)
             if (wpd_tile_distance2(&pl->tiles[t->adj[j]], p) < halo2 &&
-                route_point(r, (uint32_t)t->adj[j], (uint32_t)i, 1))
+                kept_here(e, t->adj[j]) && route_point(r, (uint32_t)t->adj[j], (uint32_t)i, 1))
                 return -1;
     }
     return 0;
