@@ -583,6 +583,22 @@ static int agree_outcome(const resample_options *o, int rc, wpd_error *err)
     return wpd_par_close(o->par, err);
 }
 
+/* After every rank succeeded: the payload the ranks exchanged, and the
+ * largest peak memory of a rank, for the summary and the report. */
+static int sum_ranks(const wpd_par *par, wpd_run_info *info, wpd_error *err)
+{
+    info->ranks = wpd_par_ranks(par);
+    uint64_t sent = wpd_par_sent(par);
+    double rss = (double)info->peak_rss_kb;
+    if (info->ranks < 2)
+        return 0;
+    if (wpd_par_sum_u64(par, &sent, 1, err) || wpd_par_max_f64(par, &rss, 1, err))
+        return -1;
+    info->exchanged_bytes = sent;
+    info->peak_rss_kb = (long)rss;
+    return 0;
+}
+
 /* The run; rank 0 (the writer) also writes the outputs and delivers them
  * once every rank has succeeded. */
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
@@ -665,6 +681,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.records_cached = wpd_cloud_cache_hits(cloud);
     rc = agree_outcome(o, rc, err);
     agreed = 1;
+    if (rc == 0)
+        rc = sum_ranks(o->par, &info, err);
     if (rc == 0 && writer)
         rc = deliver(&info, &metrics_json, &sel, &pending, o, err);
 done:

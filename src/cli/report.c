@@ -153,6 +153,8 @@ static void write_body(FILE *f, const wpd_run_info *r)
         fputs("  \"classes\": null,\n  \"class_groups\": null,\n  \"dropped_by_class\": 0,\n", f);
     fprintf(f, "  \"peak_rss_bytes\": %lld,\n", (long long)r->peak_rss_kb * 1024);
     fprintf(f, "  \"records_cached\": %llu,\n", (unsigned long long)r->records_cached);
+    fprintf(f, "  \"ranks\": %d,\n", r->ranks);
+    fprintf(f, "  \"exchanged_bytes\": %llu,\n", (unsigned long long)r->exchanged_bytes);
     fprintf(f, "  \"metrics\": %s}\n", r->metrics_json ? r->metrics_json : "null\n");
 }
 

@@ -27,8 +27,10 @@ typedef struct wpd_run_info {
     const wpd_class_result *classes; /* a run by class, or NULL */
     uint64_t dropped;             /* non-finite points dropped */
     double t_write, t_total;
-    long peak_rss_kb;
+    long peak_rss_kb;             /* the largest over the ranks */
     uint64_t records_cached;      /* records read back from the record cache */
+    int ranks;                    /* processes of an MPI run (1: a plain run) */
+    uint64_t exchanged_bytes;     /* payload the ranks handed each other (par.h) */
     const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
 } wpd_run_info;
 

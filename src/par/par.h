@@ -73,4 +73,8 @@ int wpd_par_or_u8(const wpd_par *par, uint8_t *v, size_t n, wpd_error *err);
 int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t **all,
                        size_t *off, size_t *len, wpd_error *err);
 
+/* Payload bytes this rank has handed to exchanges so far: a reduction's
+ * array once, a gather's part once for every other rank. */
+uint64_t wpd_par_sent(const wpd_par *par);
+
 #endif

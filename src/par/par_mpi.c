@@ -15,6 +15,8 @@ struct wpd_par {
     MPI_Comm comm;
     int rank, ranks;
     char host[MPI_MAX_PROCESSOR_NAME + 1];
+    uint64_t *sent;           /* payload handed to exchanges (a counter the const
+                                 handle may add to) */
 };
 
 wpd_par *wpd_par_start(int *argc, char ***argv)
@@ -25,8 +27,12 @@ wpd_par *wpd_par_start(int *argc, char ***argv)
         return NULL;
     }
     wpd_par *par = calloc(1, sizeof *par);
-    if (!par || MPI_Comm_dup(MPI_COMM_WORLD, &par->comm) != MPI_SUCCESS) {
+    if (par)
+        par->sent = calloc(1, sizeof *par->sent);
+    if (!par || !par->sent || MPI_Comm_dup(MPI_COMM_WORLD, &par->comm) != MPI_SUCCESS) {
         fprintf(stderr, "wpd: MPI could not start\n");
+        if (par)
+            free(par->sent);
         free(par);
         MPI_Finalize();
         return NULL;
@@ -44,6 +50,7 @@ void wpd_par_end(wpd_par *par)
     if (!par)
         return;
     MPI_Comm_free(&par->comm);
+    free(par->sent);
     free(par);
     MPI_Finalize();
 }
@@ -130,6 +137,7 @@ static int reduce(const wpd_par *par, void *v, size_t n, MPI_Datatype type, MPI_
     int tsize = 0;
     MPI_Type_size(type, &tsize);
     size_t size = (size_t)tsize;
+    *par->sent += n * size;
     for (size_t at = 0; at < n;) {
         size_t k = n - at < (size_t)INT_MAX / 8 ? n - at : (size_t)INT_MAX / 8;
         int rc = MPI_Allreduce(MPI_IN_PLACE, (char *)v + at * size, (int)k, type, op,
@@ -196,6 +204,7 @@ int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t *
         wpd_fail(err, WPD_E_MEMORY, "out of memory");
         goto done;
     }
+    *par->sent += (uint64_t)n * (uint64_t)(par->ranks - 1);
     mrc = MPI_Allgatherv(mine, (int)n, MPI_BYTE, *all, counts, displs, MPI_BYTE, par->comm);
     if (mrc != MPI_SUCCESS) {
         mpi_failed(err, "gather", mrc);
@@ -209,4 +218,9 @@ done:
     free(counts);
     free(displs);
     return rc;
+}
+
+uint64_t wpd_par_sent(const wpd_par *par)
+{
+    return par ? *par->sent : 0;
 }

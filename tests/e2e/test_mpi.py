@@ -70,6 +70,10 @@ def test_poisson_rounds_across_ranks_give_the_plain_bytes():
         for key in ("resolution_rounds", "resolution_tiles", "exact_sweeps", "exact_rounds",
                     "guarded_moves", "poisson_points"):
             assert mine[key] == plain[key], (ranks, key, mine[key], plain[key])
+        # Each rank spilled its own tiles: together the plain run's spill.
+        assert mine["spill"]["points"] == plain["spill"]["points"], (mine["spill"], plain["spill"])
+        assert mine["ranks"] == ranks and mine["exchanged_bytes"] > 0, mine
+    assert plain["ranks"] == 1 and plain["exchanged_bytes"] == 0
 
 
 def test_ply_and_per_input_outputs_give_the_plain_bytes():
