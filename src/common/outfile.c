@@ -13,16 +13,18 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* "<dir>/.<base>.wpd-tmp-<pid>-XXXXXX": hidden, in the output's directory so
- * the final rename never crosses file systems, and carrying the pid so a later
- * run can tell a dead run's leftover from a live one's. */
+/* "<dir>/.<base>.wpd-tmp-<host>-<pid>-XXXXXX": hidden, in the output's
+ * directory so the final rename never crosses file systems, and carrying the
+ * host and pid so a later run on that host can tell a dead run's leftover
+ * from a live one's (tmpdir.h). */
 static int make_temp_name(wpd_outfile *f, const char *path)
 {
-    char dir_buf[1024], base_buf[1024];
+    char dir_buf[1024], base_buf[1024], host[WPD_HOST_TAG_MAX + 1];
     snprintf(dir_buf, sizeof dir_buf, "%s", path);
     snprintf(base_buf, sizeof base_buf, "%s", path);
-    int n = snprintf(f->temp_path, sizeof f->temp_path, "%s/.%s.wpd-tmp-%ld-XXXXXX",
-                     dirname(dir_buf), basename(base_buf), (long)getpid());
+    wpd_tmpdir_host(host, sizeof host);
+    int n = snprintf(f->temp_path, sizeof f->temp_path, "%s/.%s.wpd-tmp-%s-%ld-XXXXXX",
+                     dirname(dir_buf), basename(base_buf), host, (long)getpid());
     return n > 0 && (size_t)n < sizeof f->temp_path ? 0 : -1;
 }
 

@@ -12,6 +12,8 @@
  */
 #include "common/tmpdir.h"
 
+#include <ctype.h>
+
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -38,7 +40,7 @@ enum { KIND_DIR = 0, KIND_FILE = 1, KIND_OUTPUTS = 2 };
 
 static struct {
     char path[PATH_CAP];
-    char marker[40];             /* KIND_OUTPUTS: ".wpd-tmp-<pid>-" */
+    char marker[80];             /* KIND_OUTPUTS: ".wpd-tmp-<host>-<pid>-" */
     pid_t owner;                 /* a forked child leaves its parent's alone */
     int kind;                    /* KIND_*: a directory with all it holds, a
                                     temporary output, or the temporary outputs
@@ -226,11 +228,29 @@ static void publish_slot(int slot, const char *path, size_t len, int kind)
     __atomic_store_n(&registry[slot].state, SLOT_LIVE, __ATOMIC_RELEASE);
 }
 
+void wpd_tmpdir_host(char *out, size_t size)
+{
+    char name[256] = "";
+    if (gethostname(name, sizeof name - 1) != 0)
+        name[0] = '\0';
+    name[sizeof name - 1] = '\0';
+    size_t n = 0;
+    /* The short name, in letters, digits, '_' and '-' (a name with others,
+     * or none, still gives a tag: they become '_'). */
+    for (const char *c = name; *c && *c != '.' && n + 1 < size && n < WPD_HOST_TAG_MAX; c++)
+        out[n++] = (isalnum((unsigned char)*c) || *c == '-') ? *c : '_';
+    if (n == 0 && size > 5)
+        memcpy(out, "host", 4), n = 4;
+    out[n] = '\0';
+}
+
 int wpd_tmpdir_create(const char *base, const char *prefix, char *out, size_t outlen,
                       wpd_error *err)
 {
-    char path[PATH_CAP];
-    int len = snprintf(path, sizeof path, "%s/%s-%ld-XXXXXX", base, prefix, (long)getpid());
+    char path[PATH_CAP], host[WPD_HOST_TAG_MAX + 1];
+    wpd_tmpdir_host(host, sizeof host);
+    int len = snprintf(path, sizeof path, "%s/%s-%s-%ld-XXXXXX", base, prefix, host,
+                       (long)getpid());
     if (len < 0 || (size_t)len >= sizeof path || (size_t)len >= outlen)
         return wpd_fail(err, WPD_E_IO, "%s: path too long for a temporary directory", base);
     int slot = claim_slot();
@@ -287,26 +307,34 @@ void wpd_tmpdir_remove(const char *path)
     pthread_mutex_unlock(&registry_mu);
 }
 
-/* The pid in name if it is "<prefix><pid>-XXXXXX" (6 alphanumerics, as
- * mkstemp and mkdtemp make them), else 0. */
-static long stale_pid(const char *name, const char *prefix)
+/* The pid in name if it is "<prefix><host>-<pid>-XXXXXX" with this host's
+ * tag (wpd_tmpdir_host), or "<prefix><pid>-XXXXXX" (the names of versions
+ * before the host tag, taken as this host's), XXXXXX 6 alphanumerics as
+ * mkstemp and mkdtemp make them; else 0: not such a name, or another
+ * host's, whose pid means nothing here. Read from the right: a host tag
+ * may hold '-'. */
+static long stale_pid(const char *name, const char *prefix, const char *host)
 {
-    size_t pl = strlen(prefix);
-    if (strncmp(name, prefix, pl) != 0)
+    size_t pl = strlen(prefix), nl = strlen(name);
+    if (strncmp(name, prefix, pl) != 0 || nl < pl + 8 || name[nl - 7] != '-')
         return 0;
-    const char *p = name + pl;
-    long pid = 0;
-    int digits = 0;
-    for (; *p >= '0' && *p <= '9' && digits < 10; p++, digits++)
-        pid = pid * 10 + (*p - '0');
-    if (!digits || *p != '-' || pid <= 0)
-        return 0;
-    p++;
-    for (int k = 0; k < 6; k++)
-        if (!((p[k] >= '0' && p[k] <= '9') || (p[k] >= 'a' && p[k] <= 'z') ||
-              (p[k] >= 'A' && p[k] <= 'Z')))
+    for (size_t k = nl - 6; k < nl; k++)
+        if (!isalnum((unsigned char)name[k]))
             return 0;
-    return p[6] == '\0' ? pid : 0;
+    size_t end = nl - 7, start = end; /* the pid: name[start, end) */
+    while (start > pl && end - start < 10 && isdigit((unsigned char)name[start - 1]))
+        start--;
+    if (start == end || (start > pl && name[start - 1] != '-'))
+        return 0;
+    if (start > pl) { /* a host tag: name[pl, start - 1) */
+        size_t hl = start - 1 - pl;
+        if (hl != strlen(host) || strncmp(name + pl, host, hl) != 0)
+            return 0;
+    }
+    long pid = 0;
+    for (size_t k = start; k < end; k++)
+        pid = pid * 10 + (name[k] - '0');
+    return pid > 0 ? pid : 0;
 }
 
 /* Removes one leftover; 1 if it is gone. A directory must be this user's:
@@ -328,9 +356,11 @@ int wpd_tmpdir_sweep_dead(const char *dir, const char *prefix, int dirs)
     if (!d)
         return 0;
     int removed = 0;
+    char host[WPD_HOST_TAG_MAX + 1];
+    wpd_tmpdir_host(host, sizeof host);
     struct dirent *e;
     while ((e = readdir(d))) {
-        long pid = stale_pid(e->d_name, prefix);
+        long pid = stale_pid(e->d_name, prefix, host);
         if (!pid || pid == (long)getpid() || pid > INT32_MAX)
             continue;
         if (kill((pid_t)pid, 0) == 0 || errno != ESRCH)
@@ -386,7 +416,9 @@ int wpd_tmpdir_track_outputs(const char *dir)
     int slot = len < PATH_CAP ? claim_slot() : -1;
     if (slot < 0)
         return -1;
-    snprintf(registry[slot].marker, sizeof registry[slot].marker, ".wpd-tmp-%ld-",
+    char host[WPD_HOST_TAG_MAX + 1];
+    wpd_tmpdir_host(host, sizeof host);
+    snprintf(registry[slot].marker, sizeof registry[slot].marker, ".wpd-tmp-%s-%ld-", host,
              (long)getpid());
     publish_slot(slot, dir, len, KIND_OUTPUTS);
     return 0;

@@ -37,7 +37,7 @@ void wpd_tmpdir_untrack_file(const char *path);
 
 /* Registers dir so that on SIGINT/SIGTERM/SIGHUP and at exit every entry
  * of it named like a temporary output of this process (containing
- * ".wpd-tmp-<pid>-") is removed: for runs that keep many finished outputs
+ * ".wpd-tmp-<host>-<pid>-") is removed: for runs that keep many finished outputs
  * under temporary names until all can be renamed, more than the registry
  * could hold one by one. Returns 0, or -1 when the registry is full. */
 int wpd_tmpdir_track_outputs(const char *dir);
@@ -56,16 +56,26 @@ void wpd_tmpdir_untrack_outputs(const char *dir);
 void wpd_tmpdir_hold_signals(void);
 void wpd_tmpdir_release_signals(void);
 
-/* Removes the entries of dir named "<prefix><pid>-XXXXXX" (XXXXXX: the 6
- * letters and digits mkstemp and mkdtemp add) whose pid is no longer a
- * running process: what a run killed outright (SIGKILL, power loss) left.
- * dirs 1: directories of this user, with all they hold; dirs 0: plain
- * files. Never touches the calling process's own. Returns how many were
+/* The host tag in temporary names, "<prefix>-<host>-<pid>-XXXXXX": a pid
+ * means something only on its host, and a tmpdir or output folder may be
+ * shared between hosts (the ranks of an MPI run, cron on several servers
+ * over NFS). The short host name, other characters than letters, digits
+ * and '-' as '_', at most WPD_HOST_TAG_MAX of them. */
+#define WPD_HOST_TAG_MAX 32
+void wpd_tmpdir_host(char *out, size_t size);
+
+/* Removes the entries of dir named "<prefix><host>-<pid>-XXXXXX" (XXXXXX:
+ * the 6 letters and digits mkstemp and mkdtemp add), host this host's tag,
+ * whose pid is no longer a running process: what a run killed outright
+ * (SIGKILL, power loss) left. Names without a host tag (earlier versions)
+ * count as this host's; other hosts' are never touched. dirs 1:
+ * directories of this user, with all they hold; dirs 0: plain files.
+ * Never touches the calling process's own. Returns how many were
  * removed. */
 int wpd_tmpdir_sweep_dead(const char *dir, const char *prefix, int dirs);
 
-/* Removes "<base>/<prefix>-<pid>-*" directories whose pid is no longer a
- * running process (wpd_tmpdir_sweep_dead). Returns how many were removed. */
+/* Removes "<base>/<prefix>-<host>-<pid>-*" directories of this host whose
+ * pid is no longer a running process (wpd_tmpdir_sweep_dead). Returns how many were removed. */
 int wpd_tmpdir_sweep_stale(const char *base, const char *prefix);
 
 #endif

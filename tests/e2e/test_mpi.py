@@ -126,3 +126,49 @@ def test_one_rank_out_of_disk_fails_every_rank_with_code_3():
     assert not os.path.exists("out.las"), os.listdir(".")
     assert os.listdir("spill") == [], os.listdir("spill")
     assert [f for f in os.listdir(".") if f.startswith("out")] == []
+
+
+def test_one_rank_killed_ends_the_run_and_the_next_run_sweeps_its_files():
+    """A rank killed outright (SIGKILL) cannot clean up: mpirun ends the
+    others, no output appears, and the next run on the host removes what the
+    dead ranks left in the tmpdir (their names carry this host and their
+    pids)."""
+    import signal
+    import time
+    synth("in.las", 300000, 9)
+    os.makedirs("spill")
+    launcher = shutil.which("mpirun")
+    if not launcher or not os.path.exists(WPD_MPI):
+        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
+    if sanitized():
+        raise Skip("the sanitized run tests the plain binary")
+    argv = [WPD_MPI, "resample", "in.las", "-o", "out.las", "-n", "3000", "--min-tiles", "8",
+            "--tmpdir", "spill", "-q"]
+    stalled = "export WPD_TEST_STALL=tile; echo $$ > rank1.pid; exec " + " ".join(argv)
+    cmd = [launcher, "--allow-run-as-root", "--oversubscribe", "-np", "1", *argv, ":",
+           "-np", "1", "sh", "-c", stalled]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 60
+        pid = None
+        while time.time() < deadline and pid is None:
+            time.sleep(0.2)
+            if os.path.exists("rank1.pid"):
+                with open("rank1.pid") as f:
+                    text = f.read().strip()
+                if text and any(("-%s-" % text) in d for d in os.listdir("spill")):
+                    pid = int(text)
+        assert pid is not None, os.listdir("spill")
+        time.sleep(1)
+        os.kill(pid, signal.SIGKILL)
+        out, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode != 0, (p.returncode, err)
+    assert not os.path.exists("out.las")
+    assert any(("-%d-" % pid) in d for d in os.listdir("spill")), os.listdir("spill")
+    wpd("resample", "in.las", "-o", "out.las", "-n", 3000, "--min-tiles", 8, "--tmpdir",
+        "spill", "-q")
+    assert os.listdir("spill") == [], os.listdir("spill")
+    assert [f for f in os.listdir(".") if ".wpd-tmp-" in f] == []

@@ -419,8 +419,10 @@ TEST(tmpdir_create_and_remove)
     fresh_base(base, sizeof base);
     wpd_error err;
     CHECK_MSG(wpd_tmpdir_create(base, "wpd-test", dir, sizeof dir, &err) == 0, "%s", err.msg);
-    char want[600];
-    snprintf(want, sizeof want, "%s/wpd-test-%ld-", base, (long)getpid());
+    char want[600], host[WPD_HOST_TAG_MAX + 1];
+    wpd_tmpdir_host(host, sizeof host);
+    CHECK(host[0] != '\0' && strchr(host, '.') == NULL && strchr(host, '/') == NULL);
+    snprintf(want, sizeof want, "%s/wpd-test-%s-%ld-", base, host, (long)getpid());
     CHECK_MSG(strncmp(dir, want, strlen(want)) == 0 && strlen(dir) == strlen(want) + 6, "%s",
               dir);
     struct stat st;
@@ -471,11 +473,25 @@ TEST(tmpdir_sweep_removes_only_dead_runs)
     make_dir_with_file(base, name);
     snprintf(path, sizeof path, "%s/wpd-spill-%ld-file00", base, (long)dead); /* a file */
     close(open(path, O_WRONLY | O_CREAT, 0600));
+    /* With host tags: this host's dead run goes, another host's stays (its
+     * pid means nothing here), whatever '-' the tags hold. */
+    char host[WPD_HOST_TAG_MAX + 1];
+    wpd_tmpdir_host(host, sizeof host);
+    snprintf(name, sizeof name, "wpd-spill-%s-%ld-Cd4yW0", host, (long)dead);
+    make_dir_with_file(base, name);
+    snprintf(name, sizeof name, "wpd-spill-%s-%ld-Cd4yW1", host, (long)getpid());
+    make_dir_with_file(base, name); /* alive: ours */
+    snprintf(name, sizeof name, "wpd-spill-other-node-7-%ld-Cd4yW2", (long)dead);
+    make_dir_with_file(base, name);
+    snprintf(name, sizeof name, "wpd-spill-%s-x-%ld-Cd4yW3", host, (long)dead);
+    make_dir_with_file(base, name); /* a host whose tag starts like ours */
 
-    CHECK(wpd_tmpdir_sweep_stale(base, "wpd-spill") == 1);
+    CHECK(wpd_tmpdir_sweep_stale(base, "wpd-spill") == 2);
     snprintf(path, sizeof path, "%s/wpd-spill-%ld-Ab3xZ9", base, (long)dead);
     CHECK(!exists(path));
-    CHECK(count_entries(base, "", NULL, 0) == 2 + 6);
+    snprintf(path, sizeof path, "%s/wpd-spill-%s-%ld-Cd4yW0", base, host, (long)dead);
+    CHECK(!exists(path));
+    CHECK(count_entries(base, "", NULL, 0) == 2 + 6 + 3);
     CHECK(wpd_tmpdir_sweep_stale(base, "wpd-spill") == 0);
     CHECK(wpd_tmpdir_sweep_stale("/nonexistent-wpd-dir", "wpd-spill") == 0);
 }
