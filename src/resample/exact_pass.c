@@ -154,46 +154,11 @@ done:
     return rc;
 }
 
-/* With the tiles shared between ranks (run.h): a tile's costs, from the
- * rank that computed them to every other (the samples stay as they are). */
-static void pack_costs(const wpd_run *run, int t, void *arg, wpd_bytes *out)
-{
-    (void)run;
-    exact_sweep *sw = arg;
-    exact_tile *x = &sw->tile[t];
-    wpd_error err = {0};
-    if (x->n == 0)
-        return;
-    if (wpd_exact_hold(sw, t, EF_COSTS, &err)) {
-        out->failed = 1;
-        return;
-    }
-    wpd_bytes_put(out, x->cost, x->n * sizeof *x->cost);
-    wpd_bytes_put(out, x->nn, x->n * sizeof *x->nn);
-    if (x->half)
-        wpd_bytes_put(out, x->half, x->n);
-    wpd_exact_let_go(sw, t, EF_COSTS);
-}
-
-static int unpack_costs(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err)
-{
-    (void)run;
-    exact_sweep *sw = arg;
-    exact_tile *x = &sw->tile[t];
-    if (x->n == 0)
-        return 0;
-    if (wpd_exact_alloc(sw, t, EF_COSTS, err))
-        return -1;
-    if (wpd_bytes_get(in, x->cost, x->n * sizeof *x->cost) ||
-        wpd_bytes_get(in, x->nn, x->n * sizeof *x->nn) ||
-        (x->half && wpd_bytes_get(in, x->half, x->n))) {
-        wpd_exact_let_go(sw, t, EF_COSTS);
-        return wpd_fail(err, WPD_E_IO, "tile %d's costs from another rank cut short", t);
-    }
-    return wpd_exact_keep(sw, t, EF_COSTS, err);
-}
-
-static const wpd_tile_share costs_share = {pack_costs, unpack_costs, 1};
+/* With the tiles shared between ranks (run.h), a tile's costs stay with its
+ * owner: the selections sum the ranks' histograms (count_keys) and only the
+ * owner picks the tile's candidates. The exchange after the costs carries
+ * nothing but the agreement. */
+static const wpd_tile_share nothing_share = {NULL, NULL, 1};
 
 /* ------------------------------------------------------------ step 2 */
 
@@ -205,6 +170,7 @@ typedef struct key_set {
     uint64_t rank;     /* KEY_TAKEN_GID: the rank the gids share */
     wpd_error *err;    /* the first failure to read a tile's fields */
     int failed;
+    int agreed_failure; /* the ranks know of it: no more exchanges */
 } key_set;
 
 static void count_key(uint64_t k, uint64_t mask, uint64_t prefix, int shift, uint64_t *hist)
@@ -240,14 +206,33 @@ static void count_tile(const key_set *ks, const exact_tile *x, uint64_t mask, ui
             }
 }
 
-/* wpd_select_count_fn over the keys of a key_set, tile by tile. */
+/* With the tiles shared between ranks, each rank counted its own tiles:
+ * the histogram is the sum over the ranks (after agreeing on a failure to
+ * read a tile's fields, which every rank then sees). */
+static void sum_ranks(key_set *ks, uint64_t *hist)
+{
+    const wpd_run *run = ks->sw->run;
+    if (!run->owner || ks->agreed_failure)
+        return;
+    wpd_error e = {0};
+    if (ks->failed)
+        e = *ks->err;
+    if (wpd_par_agree(run->opt->par, &e) ||
+        wpd_par_sum_u64(run->opt->par, hist, WPD_SELECT_BUCKETS, &e)) {
+        ks->failed = ks->agreed_failure = 1;
+        *ks->err = e;
+    }
+}
+
+/* wpd_select_count_fn over the keys of a key_set, tile by tile (this
+ * rank's tiles, summed over the ranks). */
 static void count_keys(void *arg, uint64_t mask, uint64_t prefix, int shift, uint64_t *hist)
 {
     key_set *ks = arg;
     int per_sample = ks->kind == KEY_COST || ks->kind == KEY_NEAREST;
     for (int t = 0; !ks->failed && t < ks->sw->run->plan.ntiles; t++) {
         const exact_tile *x = &ks->sw->tile[t];
-        if ((per_sample ? x->n : x->ncand) == 0)
+        if ((per_sample ? x->n : x->ncand) == 0 || !wpd_run_owns(ks->sw->run, t))
             continue;
         if (wpd_exact_hold(ks->sw, t, key_fields[ks->kind], ks->err)) {
             ks->failed = 1;
@@ -256,6 +241,7 @@ static void count_keys(void *arg, uint64_t mask, uint64_t prefix, int shift, uin
         count_tile(ks, x, mask, prefix, shift, hist);
         wpd_exact_let_go(ks->sw, t, key_fields[ks->kind]);
     }
+    sum_ranks(ks, hist);
 }
 
 /* The key of rank k of a kind (0 with err set when a tile's fields could
@@ -263,7 +249,7 @@ static void count_keys(void *arg, uint64_t mask, uint64_t prefix, int shift, uin
 static uint64_t select_key(exact_sweep *sw, key_kind kind, uint64_t rank, uint64_t k,
                            uint64_t *below, uint64_t *hist, int *failed, wpd_error *err)
 {
-    key_set ks = {sw, kind, rank, err, 0};
+    key_set ks = {sw, kind, rank, err, 0, 0};
     uint64_t key = wpd_select_kth(count_keys, &ks, k, below, hist);
     *failed |= ks.failed;
     return key;
@@ -322,6 +308,96 @@ static int pick_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
     return rc;
 }
 
+/* With the tiles shared between ranks: after the picks, each tile's counts,
+ * border and states go to every rank (what another tile's decisions read:
+ * exact_decide.c); after a round, its counts and states. */
+#define PICKED (EF_BORDER | EF(EF_STATE))
+
+static void pack_fields(exact_sweep *sw, int t, unsigned mask, wpd_bytes *out)
+{
+    exact_tile *x = &sw->tile[t];
+    wpd_bytes_put_u64(out, x->ncand);
+    wpd_bytes_put_u64(out, x->nborder);
+    wpd_bytes_put_u64(out, x->undecided);
+    wpd_bytes_put_u64(out, x->taken);
+    wpd_error err = {0};
+    if (x->ncand == 0)
+        return;
+    if (wpd_exact_hold(sw, t, mask, &err)) {
+        out->failed = 1;
+        return;
+    }
+    wpd_bytes_put(out, x->state, x->ncand);
+    if (mask & EF_BORDER) {
+        wpd_bytes_put(out, x->bidx, x->nborder * sizeof *x->bidx);
+        wpd_bytes_put(out, x->bxyz, 3 * x->nborder * sizeof *x->bxyz);
+        wpd_bytes_put(out, x->bgid, x->nborder * sizeof *x->bgid);
+        wpd_bytes_put(out, x->bcost, x->nborder * sizeof *x->bcost);
+        wpd_bytes_put(out, x->brank, x->nborder * sizeof *x->brank);
+    }
+    wpd_exact_let_go(sw, t, mask);
+}
+
+static int unpack_fields(exact_sweep *sw, int t, unsigned mask, wpd_bytes_in *in,
+                         wpd_error *err)
+{
+    exact_tile *x = &sw->tile[t];
+    uint64_t ncand = wpd_bytes_get_u64(in), nborder = wpd_bytes_get_u64(in);
+    uint64_t undecided = wpd_bytes_get_u64(in), taken = wpd_bytes_get_u64(in);
+    if (in->bad || ncand > x->n || nborder > ncand || undecided + taken > ncand ||
+        ((mask & EF_BORDER) == 0 && (ncand != x->ncand || nborder != x->nborder)))
+        return wpd_fail(err, WPD_E_IO, "tile %d's candidates from another rank do not add up",
+                        t);
+    x->ncand = ncand, x->nborder = nborder, x->undecided = undecided, x->taken = taken;
+    if (ncand == 0)
+        return 0;
+    if (wpd_exact_alloc(sw, t, mask, err))
+        return -1;
+    if (wpd_bytes_get(in, x->state, x->ncand) ||
+        ((mask & EF_BORDER) &&
+         (wpd_bytes_get(in, x->bidx, x->nborder * sizeof *x->bidx) ||
+          wpd_bytes_get(in, x->bxyz, 3 * x->nborder * sizeof *x->bxyz) ||
+          wpd_bytes_get(in, x->bgid, x->nborder * sizeof *x->bgid) ||
+          wpd_bytes_get(in, x->bcost, x->nborder * sizeof *x->bcost) ||
+          wpd_bytes_get(in, x->brank, x->nborder * sizeof *x->brank)))) {
+        wpd_exact_let_go(sw, t, mask);
+        return wpd_fail(err, WPD_E_IO, "tile %d's candidates from another rank cut short", t);
+    }
+    for (size_t b = 0; (mask & EF_BORDER) && b < x->nborder; b++)
+        if (x->bidx[b] >= x->ncand) {
+            wpd_exact_let_go(sw, t, mask);
+            return wpd_fail(err, WPD_E_IO, "tile %d's border from another rank: bad index", t);
+        }
+    return wpd_exact_keep(sw, t, mask, err);
+}
+
+static void pack_picks(const wpd_run *run, int t, void *arg, wpd_bytes *out)
+{
+    (void)run;
+    pack_fields(arg, t, PICKED, out);
+}
+
+static int unpack_picks(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err)
+{
+    (void)run;
+    return unpack_fields(arg, t, PICKED, in, err);
+}
+
+static void pack_states(const wpd_run *run, int t, void *arg, wpd_bytes *out)
+{
+    (void)run;
+    pack_fields(arg, t, EF(EF_STATE), out);
+}
+
+static int unpack_states(wpd_run *run, int t, void *arg, wpd_bytes_in *in, wpd_error *err)
+{
+    (void)run;
+    return unpack_fields(arg, t, EF(EF_STATE), in, err);
+}
+
+static const wpd_tile_share picks_share = {pack_picks, unpack_picks, 1};
+static const wpd_tile_share states_share = {pack_states, unpack_states, 1};
+
 /* ------------------------------------------------------------ step 3 */
 
 /* After a round, tile t's next becomes its state; returns the candidates
@@ -351,15 +427,22 @@ static int decide_all(exact_sweep *sw, wpd_error *err)
     for (int t = 0; t < run->plan.ntiles; t++)
         left += sw->tile[t].undecided;
     while (left > 0) {
-        if (wpd_run_tiles_any_order(run, NULL, wpd_exact_decide_tile, sw, err))
+        /* Each rank decides and advances its own tiles (a round reads the
+         * states of the round before, so all decide before any advances),
+         * then the states go to every rank. */
+        if (wpd_run_tiles_any_order_shared(run, NULL, wpd_exact_decide_tile, &nothing_share, sw,
+                                           err))
+            return -1;
+        wpd_error_clear(err);
+        for (int t = 0; err->code == WPD_OK && t < run->plan.ntiles; t++)
+            if (wpd_run_owns(run, t))
+                advance(sw, t, err);
+        if (run->owner ? wpd_run_share_colour(run, -1, &states_share, sw, err)
+                       : err->code != WPD_OK)
             return -1;
         size_t now = 0;
-        for (int t = 0; t < run->plan.ntiles; t++) {
-            long u = advance(sw, t, err);
-            if (u < 0)
-                return -1;
-            now += (size_t)u;
-        }
+        for (int t = 0; t < run->plan.ntiles; t++)
+            now += sw->tile[t].undecided;
         if (now >= left)
             return wpd_fail(err, WPD_E_USAGE, "exact count: %zu candidates still undecided "
                             "after a round (a bug)", now);
@@ -432,7 +515,7 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
     wpd_run *run = sw->run;
     for (int t = 0; t < run->plan.ntiles; t++)
         sw->tile[t].n = wpd_store_count(run, t);
-    if (wpd_run_tiles_any_order_shared(run, NULL, cost_tile, &costs_share, sw, err))
+    if (wpd_run_tiles_any_order_shared(run, NULL, cost_tile, &nothing_share, sw, err))
         return -1;
     size_t quota = live - target;
     size_t bound = quota + (quota < live / 20 ? quota : live / 20);
@@ -443,7 +526,8 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
     /* No two candidates conflict farther apart than twice the largest raw
      * cost's root: at most the bound's, and costs stop at the reach. */
     sw->conflict = 2 * sqrt(fmin(wpd_bits_double(sw->tau), sw->reach * sw->reach));
-    if (failed || wpd_run_tiles_any_order(run, NULL, pick_tile, sw, err) || decide_all(sw, err))
+    if (failed || wpd_run_tiles_any_order_shared(run, NULL, pick_tile, &picks_share, sw, err) ||
+        decide_all(sw, err))
         return -1;
     size_t taken = 0;
     for (int t = 0; t < run->plan.ntiles; t++)
@@ -456,7 +540,9 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
         if (failed)
             return -1;
     }
-    return wpd_run_tiles_any_order(run, NULL, delete_tile, &k, err);
+    /* The samples the cut leaves, from each tile's owner to every rank. */
+    static const wpd_tile_share samples_share = {NULL, NULL, 0};
+    return wpd_run_tiles_any_order_shared(run, NULL, delete_tile, &samples_share, &k, err);
 }
 
 int wpd_exact_phase(wpd_run *run, wpd_error *err)

@@ -730,5 +730,13 @@ static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error 
 
 int wpd_take_all_phase(wpd_run *run, wpd_error *err)
 {
-    return wpd_run_each_tile(run, NULL, take_all_tile, NULL, NULL, err);
+    if (wpd_run_each_tile_shared(run, NULL, take_all_tile, NULL, NULL, NULL, err))
+        return -1;
+    if (!run->owner || run->plan.ntiles < 2)
+        return 0;
+    uint64_t sharp = run->res->sharp_points; /* each rank counted its own tiles' */
+    if (wpd_par_sum_u64(run->opt->par, &sharp, 1, err))
+        return -1;
+    run->res->sharp_points = sharp;
+    return 0;
 }

@@ -52,27 +52,34 @@ def test_every_rank_count_gives_the_plain_bytes():
             assert os.listdir("spill") == [], (name, ranks, os.listdir("spill"))
 
 
-def test_poisson_rounds_across_ranks_give_the_plain_bytes():
-    """A chain of decisions past the halo: tiles re-run in further rounds,
-    with other ranks' decisions handed back."""
-    import json
+def test_rounds_across_ranks_give_the_plain_bytes():
+    """Chains of decisions past the halo: Poisson tiles re-run in further
+    rounds with other ranks' decisions handed back, and the exact count's
+    decisions take several rounds in a sweep, over several sweeps."""
     synth("in.las", 300000, 1)
-    opts = ("-n", 20000, "--min-tiles", 32, "-q", "--force")
+    for n, ranks in ((20000, 2), (60000, 3)):
+        check_rounds(n, ranks)
+
+
+def check_rounds(n, ranks):
+    import json
+    opts = ("-n", n, "--min-tiles", 32, "-q", "--force")
     wpd("resample", "in.las", "-o", "plain.las", "--report", "plain.json", *opts)
     with open("plain.json") as f:
         plain = json.load(f)
     assert plain["resolution_rounds"] > 0, plain["resolution_rounds"]
-    for ranks in (2, 3):
-        mpirun(ranks, "resample", "in.las", "-o", "mpi.las", "--report", "mpi.json", *opts)
-        assert filecmp.cmp("plain.las", "mpi.las", shallow=False), ranks
-        with open("mpi.json") as f:
-            mine = json.load(f)
-        for key in ("resolution_rounds", "resolution_tiles", "exact_sweeps", "exact_rounds",
-                    "guarded_moves", "poisson_points"):
-            assert mine[key] == plain[key], (ranks, key, mine[key], plain[key])
-        # Each rank spilled its own tiles: together the plain run's spill.
-        assert mine["spill"]["points"] == plain["spill"]["points"], (mine["spill"], plain["spill"])
-        assert mine["ranks"] == ranks and mine["exchanged_bytes"] > 0, mine
+    if n == 60000:
+        assert plain["exact_rounds"] > plain["exact_sweeps"] > 1, plain
+    mpirun(ranks, "resample", "in.las", "-o", "mpi.las", "--report", "mpi.json", *opts)
+    assert filecmp.cmp("plain.las", "mpi.las", shallow=False), (n, ranks)
+    with open("mpi.json") as f:
+        mine = json.load(f)
+    for key in ("resolution_rounds", "resolution_tiles", "exact_sweeps", "exact_rounds",
+                "guarded_moves", "poisson_points"):
+        assert mine[key] == plain[key], (n, ranks, key, mine[key], plain[key])
+    # Each rank spilled its own tiles: together the plain run's spill.
+    assert mine["spill"]["points"] == plain["spill"]["points"], (mine["spill"], plain["spill"])
+    assert mine["ranks"] == ranks and mine["exchanged_bytes"] > 0, mine
     assert plain["ranks"] == 1 and plain["exchanged_bytes"] == 0
 
 
@@ -172,3 +179,19 @@ def test_one_rank_killed_ends_the_run_and_the_next_run_sweeps_its_files():
         "spill", "-q")
     assert os.listdir("spill") == [], os.listdir("spill")
     assert [f for f in os.listdir(".") if ".wpd-tmp-" in f] == []
+
+
+def test_take_all_classes_and_laz_give_the_plain_bytes():
+    """n above the input (every point kept, tile by tile, with labels), a run
+    by class, and a LAZ input (each rank's scan caches only its share of the
+    chunks) under several ranks."""
+    synth("in.las", 60000, 10)
+    wpd("convert", "in.las", "in.laz")
+    cases = [("in.las", "-n", 70000, "--min-tiles", 8, "--sharp", "--edge-label"),
+             ("in.las", "-n", 3000, "--min-tiles", 8, "--class-count", "6=500",
+              "--keep-class", "2"),
+             ("in.laz", "-n", 3000, "--min-tiles", 8)]
+    for case in cases:
+        wpd("resample", case[0], "-o", "plain.las", "-q", "--force", *case[1:])
+        mpirun(3, "resample", case[0], "-o", "mpi.las", "-q", "--force", *case[1:])
+        assert filecmp.cmp("plain.las", "mpi.las", shallow=False), case
