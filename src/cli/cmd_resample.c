@@ -3,6 +3,7 @@
 #include "cli/class_options.h"
 #include "cli/commands.h"
 #include "cli/report.h"
+#include "cli/run_ranks.h"
 #include "cli/selection.h"
 #include "common/outfile.h"
 #include "common/tmpdir.h"
@@ -571,34 +572,6 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
     return 0;
 }
 
-/* Every rank's outcome of the run, agreed before the outputs are put in
- * place (par/par.h): 0 when every rank succeeded, else -1 with the first
- * failing rank's error. Every rank passes here once. */
-static int agree_outcome(const resample_options *o, int rc, wpd_error *err)
-{
-    if (rc == 0)
-        wpd_error_clear(err);
-    else if (err->code == WPD_OK)
-        err->code = WPD_E_IO; /* a failure must not read as success */
-    return wpd_par_close(o->par, err);
-}
-
-/* After every rank succeeded: the payload the ranks exchanged, and the
- * largest peak memory of a rank, for the summary and the report. */
-static int sum_ranks(const wpd_par *par, wpd_run_info *info, wpd_error *err)
-{
-    info->ranks = wpd_par_ranks(par);
-    uint64_t sent = wpd_par_sent(par);
-    double rss = (double)info->peak_rss_kb;
-    if (info->ranks < 2)
-        return 0;
-    if (wpd_par_sum_u64(par, &sent, 1, err) || wpd_par_max_f64(par, &rss, 1, err))
-        return -1;
-    info->exchanged_bytes = sent;
-    info->peak_rss_kb = (long)rss;
-    return 0;
-}
-
 /* The run; rank 0 (the writer) also writes the outputs and delivers them
  * once every rank has succeeded. */
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
@@ -606,13 +579,13 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_cloud *cloud = NULL;
     if (check_outputs(inputs, ninputs, o, err) ||
         !(cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err)))
-        return agree_outcome(o, -1, err);
+        return wpd_ranks_outcome(o->par, -1, err);
     /* Compressed inputs are decoded once: the scan keeps their records for
      * the tile and records passes (docs/engine.md, "Compressed inputs"). */
     char cache_base[1024];
     if (wpd_cloud_cache_records(cloud, spill_dir(o, cache_base, sizeof cache_base), err)) {
         wpd_cloud_close(cloud);
-        return agree_outcome(o, -1, err);
+        return wpd_ranks_outcome(o->par, -1, err);
     }
     int writer = wpd_par_rank(o->par) == 0, agreed = 0;
     if (!o->quiet)
@@ -640,6 +613,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         goto done;
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
+    if (wpd_ranks_same_budget(o->par, &o->mem_bytes, err))
+        goto done;
     output_lattice(cloud, o, o->params.resolution);
     if (target >= wpd_cloud_count(cloud) && !o->quiet && !wpd_class_args_used(&o->classes))
         fprintf(stderr, "wpd resample: notice: -n %llu >= %llu input points: copying the "
@@ -679,15 +654,14 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.t_total = omp_get_wtime() - t0;
     info.peak_rss_kb = peak_rss_kb();
     info.records_cached = wpd_cloud_cache_hits(cloud);
-    rc = agree_outcome(o, rc, err);
+    rc = wpd_ranks_run_facts(o->par, rc, &info, err);
+    rc = wpd_ranks_outcome(o->par, rc, err);
     agreed = 1;
-    if (rc == 0)
-        rc = sum_ranks(o->par, &info, err);
     if (rc == 0 && writer)
         rc = deliver(&info, &metrics_json, &sel, &pending, o, err);
 done:
     if (!agreed)
-        rc = agree_outcome(o, rc, err);
+        rc = wpd_ranks_outcome(o->par, rc, err);
     pending_close(&pending, o);
     wpd_resample_result_free(&res);
     wpd_class_result_free(&classes);
@@ -750,7 +724,7 @@ static int run_command(char **inputs, int ninputs, resample_options *o)
      * in the run's first agreement. */
     int writer = wpd_par_rank(o->par) == 0, lock = -1, rc;
     if (writer && (lock = wpd_output_lock(target, &err)) < 0) {
-        rc = agree_outcome(o, -1, &err);
+        rc = wpd_ranks_outcome(o->par, -1, &err);
     } else {
         rc = resample(inputs, ninputs, o, &err);
         if (writer)

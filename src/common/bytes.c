@@ -13,6 +13,7 @@ void wpd_bytes_put(wpd_bytes *b, const void *src, size_t n)
         uint8_t *p = realloc(b->p, cap);
         if (!p) {
             b->failed = 1;
+            b->error = 4; /* WPD_E_MEMORY (common/error.h) */
             return;
         }
         b->p = p, b->cap = cap;

@@ -10,7 +10,9 @@
 typedef struct wpd_bytes {
     uint8_t *p;
     size_t len, cap;
-    int failed;               /* 1: out of memory on some put (the rest ignored) */
+    int failed;               /* 1: a put ran out of memory, or a packer could not
+                                 read what it packs (the rest ignored) */
+    int error;                /* then the WPD_E_* code: WPD_E_MEMORY for a put */
 } wpd_bytes;
 
 /* Appends n bytes of src (nothing once failed). */

@@ -27,9 +27,10 @@
 
 typedef struct wpd_par wpd_par;
 
-/* Starts the ranks (MPI_Init under MPI; argc and argv may be changed by
- * it). Returns the handle, or NULL when MPI cannot start (message on
- * stderr). */
+/* Starts the ranks (MPI_Init_thread under MPI, which must give at least
+ * MPI_THREAD_FUNNELED: only the main thread ever calls MPI, never an
+ * OpenMP worker; argc and argv may be changed by it). Returns the handle,
+ * or NULL when MPI cannot start (message on stderr). */
 wpd_par *wpd_par_start(int *argc, char ***argv);
 
 /* Ends the ranks (MPI_Finalize) and frees par. NULL: nothing. */
@@ -40,14 +41,11 @@ void wpd_par_end(wpd_par *par);
 int wpd_par_rank(const wpd_par *par);
 int wpd_par_ranks(const wpd_par *par);
 
-/* Name of the host this rank runs on (temporary files carry it: a pid
- * means something only on its host). Never NULL. */
-const char *wpd_par_host(const wpd_par *par);
-
 /* Agreement before an exchange. err->code != WPD_OK: this rank failed
  * (err holds why). Returns 0 when no rank failed and none has closed;
  * otherwise -1 with err set to the lowest failing rank's error (a rank
- * already closing without an error gives WPD_E_IO "rank K ended early").
+ * already closing without an error gives WPD_E_IO "another rank of the run
+ * ended early").
  * After -1 the caller goes to wpd_par_close. */
 int wpd_par_agree(const wpd_par *par, wpd_error *err);
 
@@ -68,8 +66,11 @@ int wpd_par_or_u8(const wpd_par *par, uint8_t *v, size_t n, wpd_error *err);
 /* Every rank's bytes (mine, n of them), to every rank: *all (malloc'd, the
  * caller frees it) holds the parts in rank order, part k at off[k] with
  * len[k] bytes (off, len: arrays of wpd_par_ranks() entries the caller
- * provides). Only after an agreement that returned 0. Returns 0 or -1
- * (err: WPD_E_MEMORY or WPD_E_IO). */
+ * provides). Any size: the parts travel in slices that an int counts.
+ * Only after an agreement that returned 0; a rank that cannot hold the
+ * result makes every rank fail alike (the ranks agree before sending).
+ * Returns 0 or -1 (err: WPD_E_MEMORY or WPD_E_IO, the same on every
+ * rank). */
 int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t **all,
                        size_t *off, size_t *len, wpd_error *err);
 

@@ -14,16 +14,21 @@
 struct wpd_par {
     MPI_Comm comm;
     int rank, ranks;
-    char host[MPI_MAX_PROCESSOR_NAME + 1];
     uint64_t *sent;           /* payload handed to exchanges (a counter the const
                                  handle may add to) */
 };
 
 wpd_par *wpd_par_start(int *argc, char ***argv)
 {
-    int provided = 0, len = 0;
+    int provided = 0;
     if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
         fprintf(stderr, "wpd: MPI could not start\n");
+        return NULL;
+    }
+    if (provided < MPI_THREAD_FUNNELED) { /* OpenMP threads beside MPI need it */
+        fprintf(stderr, "wpd: this MPI library cannot run beside threads "
+                        "(MPI_THREAD_FUNNELED not provided)\n");
+        MPI_Finalize();
         return NULL;
     }
     wpd_par *par = calloc(1, sizeof *par);
@@ -40,8 +45,6 @@ wpd_par *wpd_par_start(int *argc, char ***argv)
     MPI_Comm_set_errhandler(par->comm, MPI_ERRORS_RETURN);
     MPI_Comm_rank(par->comm, &par->rank);
     MPI_Comm_size(par->comm, &par->ranks);
-    if (MPI_Get_processor_name(par->host, &len) != MPI_SUCCESS || len <= 0)
-        strcpy(par->host, "localhost");
     return par;
 }
 
@@ -63,11 +66,6 @@ int wpd_par_rank(const wpd_par *par)
 int wpd_par_ranks(const wpd_par *par)
 {
     return par ? par->ranks : 1;
-}
-
-const char *wpd_par_host(const wpd_par *par)
-{
-    return par ? par->host : "localhost";
 }
 
 static int mpi_failed(wpd_error *err, const char *what, int rc)
@@ -169,16 +167,33 @@ int wpd_par_or_u8(const wpd_par *par, uint8_t *v, size_t n, wpd_error *err)
     return reduce(par, v, n, MPI_UINT8_T, MPI_BOR, err);
 }
 
+/* Whether every rank is ok (a MIN over the ranks): 1, 0, or -1 when the
+ * ranks cannot talk (err set). */
+static int all_ok(const wpd_par *par, int ok, wpd_error *err)
+{
+    int all = 0;
+    int rc = MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, par->comm);
+    return rc == MPI_SUCCESS ? all : (mpi_failed(err, "agreement", rc), -1);
+}
+
+/* Bytes a round of a gather carries from all ranks together: counts and
+ * displacements fit an int, and the round's buffer stays small. */
+#define GATHER_ROUND ((size_t)1 << 28)
+
 int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t **all,
                        size_t *off, size_t *len, wpd_error *err)
 {
+    size_t ranks = (size_t)par->ranks;
     *all = NULL;
-    unsigned long long me = n, *each = malloc((size_t)par->ranks * sizeof *each);
-    int *counts = malloc((size_t)par->ranks * sizeof *counts);
-    int *displs = malloc((size_t)par->ranks * sizeof *displs);
-    int rc = -1;
-    if (!each || !counts || !displs) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    unsigned long long me = n, *each = malloc(ranks * sizeof *each);
+    int *counts = malloc(ranks * sizeof *counts), *displs = malloc(ranks * sizeof *displs);
+    uint8_t *slice = NULL;
+    int rc = -1, ok = each && counts && displs;
+    /* Every rank learns whether all could go on before any data moves. */
+    int all_go = all_ok(par, ok, err);
+    if (all_go <= 0) {
+        if (all_go == 0)
+            wpd_fail(err, WPD_E_MEMORY, "out of memory for an exchange between ranks");
         goto done;
     }
     int mrc = MPI_Allgather(&me, 1, MPI_UNSIGNED_LONG_LONG, each, 1, MPI_UNSIGNED_LONG_LONG,
@@ -187,33 +202,52 @@ int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t *
         mpi_failed(err, "gather", mrc);
         goto done;
     }
-    size_t total = 0;
-    for (int k = 0; k < par->ranks; k++) {
+    size_t total = 0, longest = 0;
+    for (size_t k = 0; k < ranks; k++) {
         off[k] = total;
         len[k] = (size_t)each[k];
         total += len[k];
+        longest = len[k] > longest ? len[k] : longest;
     }
-    if (total > (size_t)INT_MAX) {
-        wpd_fail(err, WPD_E_IO, "MPI gather of %zu bytes: more than one exchange carries",
-                 total);
-        goto done;
-    }
-    for (int k = 0; k < par->ranks; k++)
-        counts[k] = (int)len[k], displs[k] = (int)off[k];
-    if (!(*all = malloc(total ? total : 1))) {
-        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    size_t cut = GATHER_ROUND / ranks < longest ? GATHER_ROUND / ranks : longest;
+    cut = cut ? cut : 1;
+    *all = malloc(total ? total : 1);
+    slice = malloc(ranks * cut);
+    all_go = all_ok(par, *all && slice, err);
+    if (all_go <= 0) {
+        if (all_go == 0)
+            wpd_fail(err, WPD_E_MEMORY, "out of memory for an exchange of %zu bytes between "
+                     "ranks", total);
         goto done;
     }
     *par->sent += (uint64_t)n * (uint64_t)(par->ranks - 1);
-    mrc = MPI_Allgatherv(mine, (int)n, MPI_BYTE, *all, counts, displs, MPI_BYTE, par->comm);
-    if (mrc != MPI_SUCCESS) {
-        mpi_failed(err, "gather", mrc);
-        free(*all);
-        *all = NULL;
-        goto done;
+    /* Round j carries bytes [j cut, (j + 1) cut) of every part. */
+    for (size_t at = 0; at < longest; at += cut) {
+        int pos = 0;
+        for (size_t k = 0; k < ranks; k++) {
+            size_t m = len[k] > at ? (len[k] - at < cut ? len[k] - at : cut) : 0;
+            counts[k] = (int)m, displs[k] = pos;
+            pos += (int)m;
+        }
+        size_t mine_now = n > at ? (n - at < cut ? n - at : cut) : 0;
+        const void *from = mine_now ? (const uint8_t *)mine + at : (const void *)&me;
+        mrc = MPI_Allgatherv(from, (int)mine_now, MPI_BYTE, slice, counts, displs, MPI_BYTE,
+                             par->comm);
+        if (mrc != MPI_SUCCESS) {
+            mpi_failed(err, "gather", mrc);
+            goto done;
+        }
+        for (size_t k = 0; k < ranks; k++)
+            if (counts[k])
+                memcpy(*all + off[k] + at, slice + displs[k], (size_t)counts[k]);
     }
     rc = 0;
 done:
+    if (rc) {
+        free(*all);
+        *all = NULL;
+    }
+    free(slice);
     free(each);
     free(counts);
     free(displs);

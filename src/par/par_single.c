@@ -5,10 +5,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 struct wpd_par {
-    char host[256];
+    int unused;
 };
 
 wpd_par *wpd_par_start(int *argc, char ***argv)
@@ -19,8 +18,6 @@ wpd_par *wpd_par_start(int *argc, char ***argv)
         fprintf(stderr, "wpd: out of memory\n");
         return NULL;
     }
-    if (gethostname(par->host, sizeof par->host - 1) != 0)
-        strcpy(par->host, "localhost");
     return par;
 }
 
@@ -39,11 +36,6 @@ int wpd_par_ranks(const wpd_par *par)
 {
     (void)par;
     return 1;
-}
-
-const char *wpd_par_host(const wpd_par *par)
-{
-    return par ? par->host : "localhost";
 }
 
 int wpd_par_agree(const wpd_par *par, wpd_error *err)

@@ -209,7 +209,7 @@ static void count_tile(const key_set *ks, const exact_tile *x, uint64_t mask, ui
 /* With the tiles shared between ranks, each rank counted its own tiles:
  * the histogram is the sum over the ranks (after agreeing on a failure to
  * read a tile's fields, which every rank then sees). */
-static void sum_ranks(key_set *ks, uint64_t *hist)
+static void sum_histogram_over_ranks(key_set *ks, uint64_t *hist)
 {
     const wpd_run *run = ks->sw->run;
     if (!run->owner || ks->agreed_failure)
@@ -241,7 +241,7 @@ static void count_keys(void *arg, uint64_t mask, uint64_t prefix, int shift, uin
         count_tile(ks, x, mask, prefix, shift, hist);
         wpd_exact_let_go(ks->sw, t, key_fields[ks->kind]);
     }
-    sum_ranks(ks, hist);
+    sum_histogram_over_ranks(ks, hist);
 }
 
 /* The key of rank k of a kind (0 with err set when a tile's fields could
@@ -325,6 +325,7 @@ static void pack_fields(exact_sweep *sw, int t, unsigned mask, wpd_bytes *out)
         return;
     if (wpd_exact_hold(sw, t, mask, &err)) {
         out->failed = 1;
+        out->error = err.code;
         return;
     }
     wpd_bytes_put(out, x->state, x->ncand);

@@ -684,8 +684,8 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
     pass_ctx_free(run, &pc);
     run->res->poisson_count = wpd_run_store_count(run);
     if (rc == 0 && run->owner && run->plan.ntiles > 1) {
-        /* Each rank counted its own tiles' (one tile in memory: all ranks
-         * ran it) */
+        /* Each rank counted its own tiles' (one tile is not shared: every
+         * rank ran it and counted the same) */
         uint64_t sum[2] = {(uint64_t)run->res->resolution_tiles, run->res->sharp_points};
         rc = wpd_par_sum_u64(run->opt->par, sum, 2, err);
         run->res->resolution_tiles = (int)sum[0];

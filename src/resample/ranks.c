@@ -103,7 +103,9 @@ static int pack_tile(wpd_run *run, int t, const wpd_tile_share *extra, void *arg
     if (extra && extra->pack)
         extra->pack(run, t, arg, out);
     if (out->failed)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the samples between ranks");
+        return out->error == WPD_E_IO
+                   ? wpd_fail(err, WPD_E_IO, "tile %d: cannot read its fields back", t)
+                   : wpd_fail(err, WPD_E_MEMORY, "out of memory for the samples between ranks");
     return 0;
 }
 

@@ -37,6 +37,7 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
     wpd_first_error fe = {0};
     if (phase)
         wpd_progress_phase(run->opt->progress, phase, (uint64_t)ntiles, "tiles");
+    int broke = 0;
     for (int c = 0; c < rounds && (shared || !wpd_first_error_failed(&fe)); c++) {
 #pragma omp parallel for num_threads(workers) schedule(dynamic, 1)
         for (int t = 0; t < ntiles; t++) {
@@ -48,15 +49,25 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
                 wpd_first_error_keep(&fe, &local);
             wpd_progress_add(run->opt->progress, 1);
         }
-        if (shared && share(run, ordered ? c : -1, extra, arg, &fe))
+        if (shared && share(run, ordered ? c : -1, extra, arg, &fe)) {
+            broke = 1;
             break;
+        }
         wpd_error local = {0};
         if (!wpd_first_error_failed(&fe) && after_colour && after_colour(run, c, arg, &local))
             wpd_first_error_keep(&fe, &local);
     }
     if (phase)
         wpd_progress_end(run->opt->progress);
-    return wpd_first_error_take(&fe, err);
+    if (!shared || broke) /* broke: a failure the ranks agreed on, or this rank's
+                             own unpacking, which the others meet in their next
+                             agreement */
+        return wpd_first_error_take(&fe, err);
+    /* The last after_colour and unpacking may have failed on one rank only:
+     * the caller's next exchange (a sum) must follow an agreement. */
+    wpd_error_clear(err);
+    wpd_first_error_take(&fe, err);
+    return wpd_par_agree(run->opt->par, err);
 }
 
 int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,

@@ -140,11 +140,12 @@ static int count_cloud(wpd_cloud *cloud, const wpd_par *par, const wpd_scan *sca
 }
 
 /* With several ranks (par/par.h), each has counted its share of the units
- * (sums and sets, like the lanes): the box and points per file summed over
+ * (sums and sets, like the lanes; an input that cannot seek is read whole
+ * by every rank, which counts its share of the batches): the box and points per file summed over
  * the ranks into box and file_count. Every rank calls it, whether its own
  * count failed (rc -1, err set) or not: it agrees first. Returns 0 or -1. */
-static int sum_ranks(const wpd_par *par, int rc, wpd_bounds *box, uint64_t *file_count,
-                     int nfiles, wpd_error *err)
+static int sum_box_over_ranks(const wpd_par *par, int rc, wpd_bounds *box,
+                              uint64_t *file_count, int nfiles, wpd_error *err)
 {
     if (wpd_par_ranks(par) < 2)
         return rc;
@@ -221,7 +222,7 @@ static int bounds_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, int th
     if (rc == 0)
         sum_counters(c, threads, s->nfiles, box, s->file_count);
     counters_free(c, threads);
-    return sum_ranks(par, rc, box, s->file_count, s->nfiles, err);
+    return sum_box_over_ranks(par, rc, box, s->file_count, s->nfiles, err);
 }
 
 /* The frame: origin at the box's minimum corner. */
@@ -302,7 +303,7 @@ static int scan_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, size_t v
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     if (rc == 0)
         sum_counters(c, threads, s->nfiles, actual, s->file_count);
-    rc = sum_ranks(par, rc, actual, s->file_count, s->nfiles, err);
+    rc = sum_box_over_ranks(par, rc, actual, s->file_count, s->nfiles, err);
     if (rc == 0)
         rc = combine_ranks(par, s, c, cells, err);
     if (rc == 0 && finish_counts(s, c, cells))
