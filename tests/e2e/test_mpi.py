@@ -212,3 +212,36 @@ def test_ranks_plan_with_the_smallest_budget():
     import json
     with open("r.json") as f:
         assert json.load(f)["tiles"]["count"] > 1
+
+
+def test_interrupting_mpirun_leaves_nothing():
+    """Ctrl-C on mpirun while every rank is in the tile pass: mpirun ends the
+    ranks with SIGTERM, each removes its spill, no output appears."""
+    import signal
+    import time
+    synth("in.las", 300000, 11)
+    os.makedirs("spill")
+    launcher = shutil.which("mpirun")
+    if not launcher or not os.path.exists(WPD_MPI):
+        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
+    if sanitized():
+        raise Skip("the sanitized run tests the plain binary")
+    env = dict(os.environ, WPD_TEST_STALL="tile")
+    cmd = [launcher, "--allow-run-as-root", "--oversubscribe", "-x", "WPD_TEST_STALL", "-np",
+           "2", WPD_MPI, "resample", "in.las", "-o", "out.las", "-n", "3000", "--min-tiles", "8",
+           "--tmpdir", "spill"]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and len(os.listdir("spill")) < 2:
+            time.sleep(0.2)
+        assert len(os.listdir("spill")) >= 2, os.listdir("spill")
+        time.sleep(1)
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode != 0, (p.returncode, err)
+    assert os.listdir("spill") == [], os.listdir("spill")
+    assert sorted(os.listdir(".")) == ["in.las", "spill"], os.listdir(".")
