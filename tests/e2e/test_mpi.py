@@ -245,3 +245,18 @@ def test_interrupting_mpirun_leaves_nothing():
     assert p.returncode != 0, (p.returncode, err)
     assert os.listdir("spill") == [], os.listdir("spill")
     assert sorted(os.listdir(".")) == ["in.las", "spill"], os.listdir(".")
+
+
+def test_several_input_tiles_as_one_cloud_give_the_plain_bytes():
+    """Tiles of a survey given as several files, one output, smoothed and
+    not, on 2 and 4 ranks."""
+    for i in range(3):
+        synth("t%d.las" % i, 80000, 20 + i)
+    files = ["t0.las", "t1.las", "t2.las"]
+    for opts in ((), ("--no-smooth",)):
+        wpd("resample", *files, "-o", "plain.las", "-n", 4000, "--min-tiles", 6, "-q",
+            "--force", *opts)
+        for ranks in (2, 4):
+            mpirun(ranks, "resample", *files, "-o", "mpi.las", "-n", 4000, "--min-tiles", 6,
+                   "-q", "--force", *opts)
+            assert filecmp.cmp("plain.las", "mpi.las", shallow=False), (opts, ranks)
