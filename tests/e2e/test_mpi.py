@@ -11,16 +11,22 @@ from harness import REPO, Skip, sanitized, wpd
 WPD_MPI = os.path.join(REPO, "wpd-mpi")
 
 
+def launcher():
+    """mpirun with the flags every test needs (root, more ranks than cores);
+    skips the test without mpirun or wpd-mpi, and under the sanitizers."""
+    path = shutil.which("mpirun")
+    if not path or not os.path.exists(WPD_MPI):
+        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
+    if sanitized():
+        raise Skip("the sanitized run tests the plain binary")
+    return [path, "--allow-run-as-root", "--oversubscribe"]
+
+
 def mpirun(ranks, *args, rank1_prefix=None, rank1_args=(), check=True):
     """Runs wpd-mpi on `ranks` ranks. rank1_prefix: a shell command the
     second rank runs wpd-mpi under, rank1_args: arguments added to its
     command line (the other ranks run it plainly)."""
-    launcher = shutil.which("mpirun")
-    if not launcher or not os.path.exists(WPD_MPI):
-        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
-    if sanitized():
-        raise Skip("the sanitized run tests the plain binary")
-    base = [launcher, "--allow-run-as-root", "--oversubscribe"]
+    base = launcher()
     argv = [WPD_MPI, *map(str, args)]
     if rank1_prefix is None and not rank1_args:
         cmd = base + ["-np", str(ranks)] + argv
@@ -146,16 +152,11 @@ def test_one_rank_killed_ends_the_run_and_the_next_run_sweeps_its_files():
     import time
     synth("in.las", 300000, 9)
     os.makedirs("spill")
-    launcher = shutil.which("mpirun")
-    if not launcher or not os.path.exists(WPD_MPI):
-        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
-    if sanitized():
-        raise Skip("the sanitized run tests the plain binary")
+    base = launcher()
     argv = [WPD_MPI, "resample", "in.las", "-o", "out.las", "-n", "3000", "--min-tiles", "8",
             "--tmpdir", "spill", "-q"]
     stalled = "export WPD_TEST_STALL=tile; echo $$ > rank1.pid; exec " + " ".join(argv)
-    cmd = [launcher, "--allow-run-as-root", "--oversubscribe", "-np", "1", *argv, ":",
-           "-np", "1", "sh", "-c", stalled]
+    cmd = base + ["-np", "1", *argv, ":", "-np", "1", "sh", "-c", stalled]
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.time() + 60
@@ -221,15 +222,10 @@ def test_interrupting_mpirun_leaves_nothing():
     import time
     synth("in.las", 300000, 11)
     os.makedirs("spill")
-    launcher = shutil.which("mpirun")
-    if not launcher or not os.path.exists(WPD_MPI):
-        raise Skip("no mpirun or wpd-mpi (make MPI=1)")
-    if sanitized():
-        raise Skip("the sanitized run tests the plain binary")
+    base = launcher()
     env = dict(os.environ, WPD_TEST_STALL="tile")
-    cmd = [launcher, "--allow-run-as-root", "--oversubscribe", "-x", "WPD_TEST_STALL", "-np",
-           "2", WPD_MPI, "resample", "in.las", "-o", "out.las", "-n", "3000", "--min-tiles", "8",
-           "--tmpdir", "spill"]
+    cmd = base + ["-x", "WPD_TEST_STALL", "-np", "2", WPD_MPI, "resample", "in.las", "-o",
+                  "out.las", "-n", "3000", "--min-tiles", "8", "--tmpdir", "spill"]
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         deadline = time.time() + 60

@@ -9,6 +9,14 @@
 #include "harness.h"
 #include "wpd/ladder.h"
 
+/* The next number of a linear congruential sequence, in [0, 1): the
+ * tests' clouds, the same from run to run. */
+static double uniform(uint64_t *s)
+{
+    *s = *s * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(*s >> 11) / (double)(1ull << 53);
+}
+
 /* Counting a cloud in parts and merging the ladders gives the counts of one
  * stream over all points, whatever the split: the scan and the in-memory
  * radius count on several threads. A small cap forces coarsening, at
@@ -19,8 +27,7 @@ TEST(ladder_merge_equals_one_stream)
     double *xyz = malloc(3 * N * sizeof *xyz);
     uint64_t s = 7;
     for (int i = 0; i < 3 * N; i++) {
-        s = s * 6364136223846793005ull + 1442695040888963407ull;
-        xyz[i] = (double)(s >> 11) / (double)(1ull << 53) * (i % 3 == 2 ? 5.0 : 100.0);
+        xyz[i] = uniform(&s) * (i % 3 == 2 ? 5.0 : 100.0);
     }
     const double extent[3] = {100, 100, 5};
     const double wanted = 1e9; /* with the sample ladder */
@@ -128,10 +135,8 @@ TEST(ladder_merge_packed_equals_one_ladder)
      * parts' ladders coarsen to different levels. */
     for (size_t i = 0; i < N; i++) {
         double u[3];
-        for (int k = 0; k < 3; k++) {
-            s = s * 6364136223846793005ull + 1442695040888963407ull;
-            u[k] = (double)(s >> 11) / (double)(1ull << 53) * 300.0;
-        }
+        for (int k = 0; k < 3; k++)
+            u[k] = uniform(&s) * 300.0;
         xyz[3 * i] = u[0], xyz[3 * i + 1] = u[1];
         xyz[3 * i + 2] = i < N / 2 ? 30 + 20 * sin(u[0] / 40) * cos(u[1] / 25) : u[2] / 5;
     }
@@ -193,10 +198,8 @@ TEST(ladder_sample_estimates_fine_scales)
     uint64_t s = 11;
     for (size_t i = 0; i < N; i++) {
         double u[2];
-        for (int k = 0; k < 2; k++) {
-            s = s * 6364136223846793005ull + 1442695040888963407ull;
-            u[k] = (double)(s >> 11) / (double)(1ull << 53) * 400.0;
-        }
+        for (int k = 0; k < 2; k++)
+            u[k] = uniform(&s) * 400.0;
         xyz[3 * i] = u[0], xyz[3 * i + 1] = u[1];
         xyz[3 * i + 2] = 20 + 10 * sin(u[0] / 60) * cos(u[1] / 45); /* a rolling surface */
     }
