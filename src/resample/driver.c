@@ -189,7 +189,7 @@ static int tile_phase(wpd_run *run, wpd_error *err)
     wpd_progress_end(run->opt->progress);
     wpd_tiles_stats(&run->tiles, &run->res->spill);
     run->res->time.tile = omp_get_wtime() - t;
-    return run->owner && !run->res->in_memory ? sum_spill_stats(run, err) : 0;
+    return wpd_run_spills_own_tiles(run) ? sum_spill_stats(run, err) : 0;
 }
 
 static int finish(wpd_run *run, wpd_error *err)

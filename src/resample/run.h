@@ -151,6 +151,13 @@ int wpd_run_tiles_any_order_shared(wpd_run *run, const char *phase, wpd_tile_fn 
 int wpd_run_assign_owners(wpd_run *run, wpd_error *err);
 /* Whether this rank runs tile t. */
 int wpd_run_owns(const wpd_run *run, int t);
+/* Whether each rank spills only its own tiles' points: the ranks share
+ * the tiles and there are several (one tile, in memory or not, every rank
+ * holds whole and runs its Poisson passes). */
+static inline int wpd_run_spills_own_tiles(const wpd_run *run)
+{
+    return run->owner && !run->res->in_memory && run->plan.ntiles > 1;
+}
 /* After the tiles of colour c (-1: all tiles) ran: agrees on err (this
  * rank's failure, or WPD_OK), then every rank gets each such tile's
  * samples from its owner into its store, and extra's state. Returns 0, or

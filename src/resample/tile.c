@@ -79,11 +79,10 @@ static int route_point(routing *r, uint32_t tile, uint32_t point, uint8_t halo)
 }
 
 /* Whether this process keeps tile t's points: all of them, but where the
- * ranks of an MPI run share the tiles, only those of its own tiles (one
- * tile, in memory or not: every rank runs its Poisson passes). */
+ * ranks of an MPI run spill their own tiles, only those. */
 static int kept_here(const wpd_run *e, int t)
 {
-    return !e->owner || e->res->in_memory || e->plan.ntiles == 1 || wpd_run_owns(e, t);
+    return !wpd_run_spills_own_tiles(e) || wpd_run_owns(e, t);
 }
 
 /* Destinations of every point of the batch (frame coordinates in fxyz). */
