@@ -439,6 +439,22 @@ static int records_of_run(void *src, wpd_cloud *cloud, size_t mem_bytes, int thr
     return rc;
 }
 
+/* The records source of one share of a plain run's samples (src: the
+ * result, whose scan counted the points of each unit). */
+static int records_share_of_run(void *src, wpd_cloud *cloud, uint64_t first, uint64_t count,
+                                size_t mem_bytes, int threads, wpd_progress *progress,
+                                wpd_sample_sink sink, void *arg, wpd_error *err)
+{
+    wpd_resample_result *res = src;
+    wpd_run_merge *m;
+    if (wpd_run_merge_open(res->samples, WPD_RUN_MERGE_BUDGET, &m, err))
+        return -1;
+    int rc = wpd_resample_stream_share(cloud, m, first, count, res->unit_points, res->nunits,
+                                       mem_bytes, threads, progress, sink, arg, err);
+    wpd_run_merge_close(m);
+    return rc;
+}
+
 /* The records source of a run by class (src: the class result). */
 static int records_by_class(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
                             wpd_progress *progress, wpd_sample_sink sink, void *arg,
@@ -452,11 +468,18 @@ static int records_by_class(void *src, wpd_cloud *cloud, size_t mem_bytes, int t
  * the classes' filter for a run by class (its global indices count the
  * points not dropped). */
 static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, resample_options *o,
-                         wpd_outfile *files, wpd_error *err)
+                         wpd_outfile *files, int *writers, wpd_error *err)
 {
+    char dir[1024];
     wpd_selection_target target = {o->output, o->per_input, &o->write, o->mem_bytes,
-                                   o->params.threads, &o->progress};
-    return wpd_selection_write(sel, cloud, &target, files, err);
+                                   o->params.threads, &o->progress, o->par,
+                                   spill_dir(o, dir, sizeof dir)};
+    /* Every rank writes its share where the source allows; else rank 0
+     * writes alone (docs/scale-out.md). */
+    *writers = wpd_selection_shared(sel, &target) ? wpd_par_ranks(o->par) : 1;
+    if (*writers > 1)
+        return wpd_selection_write_shared(sel, cloud, &target, files, err);
+    return wpd_par_rank(o->par) == 0 ? wpd_selection_write(sel, cloud, &target, files, err) : 0;
 }
 
 /* The outputs (files[0..nout-1]) and the report (files[nout]) of a run,
@@ -634,7 +657,9 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     sel = (wpd_selection){res.count, res.file_samples, res.file_bounds, res.moved,
                           res.radius / 1000, o->edge_label,
                           classes.ngroups ? records_by_class : records_of_run,
-                          classes.ngroups ? (void *)&classes : (void *)&res, NULL};
+                          classes.ngroups ? (void *)&classes : (void *)&res,
+                          res.unit_points && !classes.ngroups ? records_share_of_run : NULL,
+                          NULL};
     if (rc == 0 && o->edge_label && !res.labelled && res.count)
         rc = wpd_fail(err, WPD_E_USAGE, "internal error: no sharp-feature labels to write");
     if (rc == 0 && o->metrics && !(sel.xyz_out = malloc((res.count ? res.count : 1) * 3 *
@@ -647,8 +672,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     double tw = omp_get_wtime();
     /* The records pass reads every input point: progress in those. */
     wpd_progress_phase(&o->progress, "write", res.input_points, "points");
-    if (rc == 0 && writer)
-        rc = write_outputs(&sel, cloud, o, pending.files, err);
+    if (rc == 0)
+        rc = write_outputs(&sel, cloud, o, pending.files, &info.writers, err);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;

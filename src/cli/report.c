@@ -155,6 +155,7 @@ static void write_body(FILE *f, const wpd_run_info *r)
     fprintf(f, "  \"records_cached\": %llu,\n", (unsigned long long)r->records_cached);
     fprintf(f, "  \"ranks\": %d,\n", r->ranks);
     fprintf(f, "  \"exchanged_bytes\": %llu,\n", (unsigned long long)r->exchanged_bytes);
+    fprintf(f, "  \"writers\": %d,\n", r->writers);
     fprintf(f, "  \"metrics\": %s}\n", r->metrics_json ? r->metrics_json : "null\n");
 }
 

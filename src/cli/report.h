@@ -31,6 +31,7 @@ typedef struct wpd_run_info {
     uint64_t records_cached;      /* records read back from the record cache */
     int ranks;                    /* processes of an MPI run (1: a plain run) */
     uint64_t exchanged_bytes;     /* payload the ranks handed each other (par.h) */
+    int writers;                  /* ranks that wrote a share of the output */
     const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
 } wpd_run_info;
 

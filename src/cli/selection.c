@@ -6,7 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/bytes.h"
 #include "common/testhook.h"
+#include "io/laz.h"
 #include "io/layout.h"
 #include "resample/resample.h"
 
@@ -66,6 +68,7 @@ typedef struct writing {
     int nout;
     wpd_bounds *box;          /* [nout]: the box of output k's points */
     size_t written;           /* points handed to the outputs so far */
+    uint64_t limit;           /* points this process writes */
     int done;                 /* outputs 0..done-1 finished */
     int open;                 /* output `done` is open */
     wpd_writer *w;
@@ -138,7 +141,7 @@ static int write_samples(void *arg, int file, const double *xyz, const uint8_t *
     wpd_layout_apply(&ws->map, &in->schema, &ws->out.schema, &src, &ws->dst);
     if (ws->label >= 0)
         wpd_layout_set_labels(&ws->out.schema.dims[ws->label], &ws->dst, edge);
-    if (ws->written + n > ws->sel->n)
+    if (ws->written + n > ws->limit)
         return wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
                         wpd_cloud_header(ws->cloud, 0)->path);
     if (ws->sel->xyz_out)
@@ -166,7 +169,8 @@ int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud,
                         const wpd_selection_target *target, wpd_outfile *pending,
                         wpd_error *err)
 {
-    writing ws = {.sel = sel, .cloud = cloud, .target = target, .pending = pending};
+    writing ws = {.sel = sel, .cloud = cloud, .target = target, .pending = pending,
+                  .limit = sel->n};
     int rc = output_boxes(&ws, err);
     if (rc == 0)
         wpd_outfile_clear_all(pending, ws.nout);
@@ -197,4 +201,191 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
     snprintf(base, sizeof base, "%s", input);
     snprintf(buf, size, "%s/%s", outdir, basename(base));
     return buf;
+}
+
+/* ---- one output written by every rank ---- */
+
+int wpd_selection_shared(const wpd_selection *sel, const wpd_selection_target *target)
+{
+    return wpd_par_ranks(target->par) > 1 && target->path && sel->share_source &&
+           !sel->xyz_out;
+}
+
+/* Rank r's share of n samples: whole LAZ chunks but for the last rank's
+ * (the same cut for every output format, so that the parts are simple). */
+static void share_of(uint64_t n, int ranks, int r, uint64_t *first, uint64_t *count)
+{
+    uint64_t chunk = WPD_LAZ_CHUNK_POINTS;
+    uint64_t lo = (uint64_t)((unsigned __int128)n * (unsigned)r / (unsigned)ranks) / chunk * chunk;
+    uint64_t hi = r + 1 == ranks ? n
+                  : (uint64_t)((unsigned __int128)n * (unsigned)(r + 1) / (unsigned)ranks) /
+                        chunk * chunk;
+    *first = lo;
+    *count = hi - lo;
+}
+
+/* Ranks after the first: a part writer in target->tmpdir, named with the
+ * output's extension (which chooses LAS or LAZ). */
+static int open_part(writing *ws, wpd_error *err)
+{
+    const char *path = ws->target->path, *dot = strrchr(path, '.');
+    char part[1100];
+    snprintf(part, sizeof part, "%s/wpd-part%s", ws->target->tmpdir, dot ? dot : "");
+    if (plan_output(ws->sel, &ws->box[0], input_of(ws, 0), path, &ws->out, &ws->map,
+                    &ws->label, err))
+        return -1;
+    if (!(ws->w = wpd_writer_open_part(part, &ws->out, ws->target->opt, err))) {
+        wpd_header_free(&ws->out);
+        return -1;
+    }
+    ws->open = 1;
+    return 0;
+}
+
+/* A part's facts (rank 0's with the output's temporary name and where its
+ * records end) for the other ranks. */
+static void pack_part(wpd_bytes *b, const wpd_write_part *p, const char *temp, uint64_t end)
+{
+    size_t tl = temp ? strlen(temp) : 0;
+    wpd_bytes_put_u64(b, tl);
+    wpd_bytes_put(b, temp ? temp : "", tl);
+    wpd_bytes_put_u64(b, end);
+    wpd_bytes_put_u64(b, p->count);
+    wpd_bytes_put_u64(b, p->bytes);
+    wpd_bytes_put(b, p->by_return, sizeof p->by_return);
+    wpd_bytes_put(b, p->qmin, sizeof p->qmin);
+    wpd_bytes_put(b, p->qmax, sizeof p->qmax);
+    wpd_bytes_put_u64(b, p->nchunks);
+    wpd_bytes_put(b, p->chunk_sizes, (size_t)p->nchunks * sizeof *p->chunk_sizes);
+}
+
+/* The facts pack_part packed; temp (1100 bytes) gets the name. Returns 0,
+ * or -1 when the bytes are cut short. */
+static int unpack_part(wpd_bytes_in *in, wpd_write_part *p, char *temp, uint64_t *end)
+{
+    uint64_t tl = wpd_bytes_get_u64(in);
+    if (tl >= 1100 || wpd_bytes_get(in, temp, (size_t)tl))
+        return -1;
+    temp[tl] = '\0';
+    *end = wpd_bytes_get_u64(in);
+    p->count = wpd_bytes_get_u64(in);
+    p->bytes = wpd_bytes_get_u64(in);
+    wpd_bytes_get(in, p->by_return, sizeof p->by_return);
+    wpd_bytes_get(in, p->qmin, sizeof p->qmin);
+    wpd_bytes_get(in, p->qmax, sizeof p->qmax);
+    p->nchunks = wpd_bytes_get_u64(in);
+    if (in->bad || p->nchunks > wpd_bytes_left(in) / sizeof *p->chunk_sizes)
+        return -1;
+    p->chunk_sizes = (const uint32_t *)(in->p + in->at); /* aligned or not: memcpy'd */
+    in->at += (size_t)p->nchunks * sizeof *p->chunk_sizes;
+    return 0;
+}
+
+/* Every rank's part facts to every rank (all: the caller frees it). */
+static int exchange_parts(const wpd_par *par, int rc, writing *ws, const wpd_write_part *mine,
+                          uint8_t **all, size_t *off, size_t *len, wpd_error *err)
+{
+    wpd_bytes b = {0};
+    int first = wpd_par_rank(par) == 0;
+    if (rc == 0) {
+        pack_part(&b, mine, first ? wpd_writer_temp_path(ws->w) : NULL,
+                  first ? wpd_writer_records_end(ws->w) : 0);
+        if (b.failed)
+            rc = wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    }
+    if (rc == 0)
+        wpd_error_clear(err);
+    rc = wpd_par_agree(par, err) || wpd_par_gather_all(par, b.p, b.len, all, off, len, err)
+             ? -1 : 0;
+    wpd_bytes_free(&b);
+    return rc;
+}
+
+/* Ranks after the first put their part's bytes into the output; rank 0
+ * adds every other part's facts, in rank order. */
+static int join_parts(writing *ws, const uint8_t *all, const size_t *off, const size_t *len,
+                      wpd_error *err)
+{
+    const wpd_par *par = ws->target->par;
+    int ranks = wpd_par_ranks(par), me = wpd_par_rank(par);
+    char temp[1100], ignored[1100];
+    uint64_t at = 0, unused;
+    for (int k = 0; k < ranks; k++) {
+        wpd_bytes_in in = {all + off[k], len[k], 0, 0};
+        wpd_write_part p;
+        if (unpack_part(&in, &p, k ? ignored : temp, k ? &unused : &at))
+            return wpd_fail(err, WPD_E_IO, "%s: a rank's part facts are cut short",
+                            ws->target->path);
+        uint32_t *sizes = NULL;
+        if (me == 0 && k > 0 && p.nchunks) { /* aligned copy of the sizes */
+            if (!(sizes = malloc((size_t)p.nchunks * sizeof *sizes)))
+                return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+            memcpy(sizes, p.chunk_sizes, (size_t)p.nchunks * sizeof *sizes);
+            p.chunk_sizes = sizes;
+        }
+        int rc = 0;
+        if (k > 0 && k == me)
+            rc = wpd_writer_place_part(ws->w, temp, at, err);
+        else if (k > 0 && me == 0)
+            rc = wpd_writer_add_part(ws->w, &p, err);
+        free(sizes);
+        if (rc)
+            return -1;
+        if (k > 0)
+            at += p.bytes;
+    }
+    return 0;
+}
+
+int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
+                               const wpd_selection_target *target, wpd_outfile *pending,
+                               wpd_error *err)
+{
+    const wpd_par *par = target->par;
+    int me = wpd_par_rank(par);
+    uint64_t first, count;
+    share_of(sel->n, wpd_par_ranks(par), me, &first, &count);
+    writing ws = {.sel = sel, .cloud = cloud, .target = target, .pending = pending,
+                  .limit = count};
+    wpd_write_part mine;
+    int rc = output_boxes(&ws, err);
+    if (rc == 0 && pending)
+        wpd_outfile_clear_all(pending, 1);
+    if (rc == 0)
+        rc = me == 0 ? open_output(&ws, err) : open_part(&ws, err);
+    if (rc == 0)
+        rc = sel->share_source(sel->source_arg, cloud, first, count, target->mem_bytes,
+                               target->threads, target->progress, write_samples, &ws, err);
+    if (rc == 0 && ws.written != count)
+        rc = wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                      wpd_cloud_header(cloud, 0)->path);
+    if (rc == 0)
+        rc = wpd_writer_end_part(ws.w, &mine, err);
+    uint8_t *all = NULL;
+    size_t ranks = (size_t)wpd_par_ranks(par);
+    size_t *off = calloc(ranks, sizeof *off), *len = calloc(ranks, sizeof *len);
+    if (rc == 0 && (!off || !len))
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    /* A failed exchange failed on every rank: on to the closing agreement. */
+    rc = exchange_parts(par, rc, &ws, &mine, &all, off, len, err);
+    if (rc == 0) {
+        /* Every part is in the output before rank 0 finishes it. */
+        if (join_parts(&ws, all, off, len, err) == 0)
+            wpd_error_clear(err);
+        rc = wpd_par_agree(par, err);
+    }
+    free(all);
+    free(off);
+    free(len);
+    if (rc == 0 && me == 0)
+        rc = close_output(&ws, err);
+    if (ws.open) { /* a part (its bytes are in the output), or a failure */
+        wpd_writer_abort(ws.w);
+        wpd_header_free(&ws.out);
+    }
+    wpd_batch_free(&ws.dst);
+    free(ws.box);
+    if (rc && pending)
+        wpd_outfile_abort_all(pending, 1);
+    return rc;
 }

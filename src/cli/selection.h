@@ -15,6 +15,7 @@
 #include "io/cloud.h"
 #include "common/progress.h"
 #include "io/writer.h"
+#include "par/par.h"
 #include "resample/resample.h"
 
 /* The records pass that hands the output points to sink (resample.h:
@@ -23,6 +24,14 @@
 typedef int (*wpd_records_source)(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
                                   wpd_progress *progress, wpd_sample_sink sink, void *arg,
                                   wpd_error *err);
+
+/* The records pass of one share of the output, the samples first ..
+ * first + count - 1 in output order (resample.h,
+ * wpd_resample_stream_share). */
+typedef int (*wpd_records_share_source)(void *src, wpd_cloud *cloud, uint64_t first,
+                                        uint64_t count, size_t mem_bytes, int threads,
+                                        wpd_progress *progress, wpd_sample_sink sink,
+                                        void *arg, wpd_error *err);
 
 typedef struct wpd_selection {
     size_t n;                 /* output points */
@@ -35,6 +44,8 @@ typedef struct wpd_selection {
                                  WPD_EDGE_FIELD (the source hands labels out) */
     wpd_records_source source;
     void *source_arg;
+    wpd_records_share_source share_source; /* or NULL: the source cannot start
+                                 mid-way (one process writes) */
     double *xyz_out;          /* [3n], or NULL: gets the coordinates written, in
                                  output order (--metrics measures them) */
 } wpd_selection;
@@ -53,6 +64,8 @@ typedef struct wpd_selection_target {
     size_t mem_bytes;         /* the budget the records pass reads within */
     int threads;
     wpd_progress *progress;   /* may be NULL */
+    const wpd_par *par;       /* the ranks (NULL: one process) */
+    const char *tmpdir;       /* where a rank's part of the output waits */
 } wpd_selection_target;
 
 /* Writes sel, its points and records from sel->source reading cloud (as
@@ -70,6 +83,25 @@ typedef struct wpd_selection_target {
 int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud,
                         const wpd_selection_target *target, wpd_outfile *pending,
                         wpd_error *err);
+
+/* Whether the ranks of target->par (two or more) write sel together:
+ * one output, a source that can start mid-way, no coordinates kept for
+ * --metrics. The same on every rank. */
+int wpd_selection_shared(const wpd_selection *sel, const wpd_selection_target *target);
+
+/* wpd_selection_write by every rank (wpd_selection_shared): each reads the
+ * records of its share of the samples (whole LAZ chunks, in output order)
+ * and writes them, rank 0 into the output, the others into a part file in
+ * target->tmpdir that is then copied into the output at its offset (an
+ * exclusive prefix sum of the parts' bytes); rank 0 then completes the
+ * header and tables from every part's facts and finishes the output under
+ * its temporary name, in pending[0] (other ranks: pending may be NULL).
+ * The bytes are those one process writes. Every rank calls it; it agrees
+ * before each exchange (par.h). Returns 0, or -1 with err set and no
+ * output or part left. */
+int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
+                               const wpd_selection_target *target, wpd_outfile *pending,
+                               wpd_error *err);
 
 /* The --per-input output of input: "<outdir>/<input's file name>", in buf. */
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size);

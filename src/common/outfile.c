@@ -160,6 +160,36 @@ int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long of
     return write_all(f, buf, len, off < 0 ? 0 : off, err);
 }
 
+int wpd_outfile_place(const wpd_outfile *part, uint64_t len, const wpd_outfile *dest,
+                      uint64_t off, wpd_error *err)
+{
+    int fd = open(dest->temp_path, O_WRONLY | O_CLOEXEC);
+    if (fd < 0)
+        return wpd_fail_errno(err, "%s: cannot open %s to write a part", dest->final_path,
+                              dest->temp_path);
+    enum { STEP = 1 << 20 };
+    uint8_t *buf = malloc(STEP);
+    int rc = buf ? 0 : wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    for (uint64_t at = 0; rc == 0 && at < len; at += STEP) {
+        size_t n = len - at < STEP ? (size_t)(len - at) : STEP;
+        ssize_t got = wpd_pread_full(part->fd, buf, n, at);
+        if (got != (ssize_t)n)
+            rc = got < 0 ? wpd_fail_errno(err, "%s: cannot read", part->temp_path)
+                         : wpd_fail(err, WPD_E_IO, "%s: cut short", part->temp_path);
+        else if (wpd_pwrite_full(fd, buf, n, off + at))
+            rc = wpd_fail_errno(err, "%s: write failed", dest->final_path);
+    }
+    free(buf);
+    /* The first process renames the output once every part is in: the
+     * bytes must be on its storage by then (NFS reports lost writes at
+     * close). */
+    if (rc == 0 && fsync(fd) != 0 && errno != EINVAL)
+        rc = wpd_fail_errno(err, "%s: cannot flush output", dest->final_path);
+    if (close(fd) != 0 && rc == 0)
+        rc = wpd_fail_errno(err, "%s: cannot close output", dest->final_path);
+    return rc;
+}
+
 int wpd_outfile_finish(wpd_outfile *f, wpd_error *err)
 {
     /* fsync before rename: after a crash the final name must never point at

@@ -3,6 +3,8 @@
 #ifndef WPD_OUTFILE_H
 #define WPD_OUTFILE_H
 
+#include <stdint.h>
+
 #include "common/error.h"
 
 typedef struct wpd_outfile {
@@ -22,6 +24,14 @@ int wpd_outfile_write(wpd_outfile *f, const void *buf, size_t len, wpd_error *er
 /* Writes all len bytes at absolute offset off (does not move the position). */
 int wpd_outfile_pwrite(wpd_outfile *f, const void *buf, size_t len, long long off,
                        wpd_error *err);
+
+/* Copies the first len bytes of part (open) into dest's temporary file
+ * at offset off, through a descriptor of its own (dest may belong to
+ * another process on another host: only dest->temp_path and final_path
+ * are used), flushed to disk and closed. For one output written by
+ * several processes (io/writer.h). Returns 0, or -1 with err set. */
+int wpd_outfile_place(const wpd_outfile *part, uint64_t len, const wpd_outfile *dest,
+                      uint64_t off, wpd_error *err);
 
 /* Takes an exclusive lock on writing path, so that two runs writing the
  * same output cannot collide: flock on "<dir>/.<base>.wpd-lock". A lock

@@ -57,6 +57,11 @@ typedef struct wpd_writer_ops {
     int (*finish)(wpd_writer *w, wpd_error *err);
     /* Frees w->impl. */
     void (*close)(wpd_writer *w);
+    /* Same contracts as wpd_writer_end_part and wpd_writer_add_part, for
+     * the format's own facts (count, bytes and the position are the
+     * generic writer's). */
+    int (*end_part)(wpd_writer *w, wpd_write_part *part, wpd_error *err);
+    int (*add_part)(wpd_writer *w, const wpd_write_part *part, wpd_error *err);
 } wpd_writer_ops;
 
 struct wpd_writer {
@@ -65,6 +70,8 @@ struct wpd_writer {
     wpd_header hdr;         /* deep copy of the caller's header */
     wpd_write_options opt;
     uint64_t count;
+    int part;               /* 1: a part (wpd_writer_open_part): records only */
+    uint64_t records_start; /* file position of the first record */
     void *impl;
 };
 

@@ -265,9 +265,47 @@ static int las_write(wpd_writer *w, const wpd_batch *b, wpd_error *err)
     return 0;
 }
 
+/* A part (writer.h) ends with its last records: no table, no header. */
+static int las_end_part(wpd_writer *w, wpd_write_part *part, wpd_error *err)
+{
+    las_writer *L = w->impl;
+    if (flush_buffer(w, L, err) ||
+        (L->laz && wpd_laz_writer_end_part(L->laz, &w->out, &part->nchunks,
+                                           &part->chunk_sizes, err)))
+        return -1;
+    memcpy(part->by_return, L->by_return, sizeof part->by_return);
+    memcpy(part->qmin, L->qmin, sizeof part->qmin);
+    memcpy(part->qmax, L->qmax, sizeof part->qmax);
+    return 0;
+}
+
+static int las_add_part(wpd_writer *w, const wpd_write_part *part, wpd_error *err)
+{
+    las_writer *L = w->impl;
+    if (part->count > L->max_points - w->count)
+        return wpd_fail(err, WPD_E_INPUT,
+                        "%s: more than %llu points do not fit in a LAS %u.%u file (use LAS 1.4)",
+                        w->out.final_path, (unsigned long long)L->max_points,
+                        w->hdr.las.version_major, w->hdr.las.version_minor);
+    if (L->laz && wpd_laz_writer_add_chunks(L->laz, part->chunk_sizes, part->nchunks,
+                                            part->bytes, err))
+        return -1;
+    for (int i = 0; i < 16; i++)
+        L->by_return[i] += part->by_return[i];
+    for (int a = 0; a < 3; a++) {
+        L->qmin[a] = part->qmin[a] < L->qmin[a] ? part->qmin[a] : L->qmin[a];
+        L->qmax[a] = part->qmax[a] > L->qmax[a] ? part->qmax[a] : L->qmax[a];
+    }
+    return 0;
+}
+
 static int las_finish(wpd_writer *w, wpd_error *err)
 {
     las_writer *L = w->impl;
+    if (w->part) {
+        wpd_write_part ignored;
+        return las_end_part(w, &ignored, err);
+    }
     header_totals t = {.count = w->count, .by_return = L->by_return};
     if (flush_buffer(w, L, err))
         return -1;
@@ -294,7 +332,8 @@ static void las_close_writer(wpd_writer *w)
     w->impl = NULL;
 }
 
-static const wpd_writer_ops las_writer_ops = {las_write, las_finish, las_close_writer};
+static const wpd_writer_ops las_writer_ops = {las_write, las_finish, las_close_writer,
+                                              las_end_part, las_add_part};
 
 /* ---- open ---- */
 
@@ -414,6 +453,8 @@ int wpd_las_open_writer(wpd_writer *w, wpd_error *err)
         return wpd_fail(err, WPD_E_USAGE, "%s: the VLRs do not fit before the point data "
                         "(more than 4 GiB)", w->out.final_path);
     L->offset_to_points = (uint32_t)prelude;
+    if (w->part) /* records only (writer.h) */
+        return 0;
     /* Placeholder header (patched by finish), then the VLRs in order. */
     uint64_t zero_returns[16] = {0};
     header_totals t = {.by_return = zero_returns};

@@ -76,4 +76,13 @@ int wpd_laz_writer_put(wpd_laz_writer *z, wpd_outfile *f, const uint8_t *rec, si
 int wpd_laz_writer_finish(wpd_laz_writer *z, wpd_outfile *f, uint64_t points_start,
                           uint64_t *end, wpd_error *err);
 
+/* One output written by several processes (writer.h): closes the open
+ * chunk and gives the sizes of z's chunks (*sizes points into z), or
+ * appends the chunks another process wrote after z's (sizes: n of them,
+ * bytes in all) to z's table. Return 0, or -1 with err set. */
+int wpd_laz_writer_end_part(wpd_laz_writer *z, wpd_outfile *f, uint64_t *nchunks,
+                            const uint32_t **sizes, wpd_error *err);
+int wpd_laz_writer_add_chunks(wpd_laz_writer *z, const uint32_t *sizes, uint64_t n,
+                              uint64_t bytes, wpd_error *err);
+
 #endif

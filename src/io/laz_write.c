@@ -160,6 +160,21 @@ static int fail_memory(const wpd_laz_writer *z, wpd_error *err)
     return wpd_fail(err, WPD_E_MEMORY, "%s: out of memory for a LAZ chunk", z->path);
 }
 
+/* Room for the sizes of n more chunks. */
+static int room_for_chunks(wpd_laz_writer *z, size_t n)
+{
+    if (z->nchunks + n <= z->cap)
+        return 0;
+    size_t cap = z->cap ? 2 * z->cap : 64;
+    while (cap < z->nchunks + n)
+        cap *= 2;
+    uint32_t *s = realloc(z->sizes, cap * sizeof *s);
+    if (!s)
+        return -1;
+    z->sizes = s, z->cap = cap;
+    return 0;
+}
+
 /* Ends the open chunk and writes it out. */
 static int close_chunk(wpd_laz_writer *z, wpd_outfile *f, wpd_error *err)
 {
@@ -172,13 +187,8 @@ static int close_chunk(wpd_laz_writer *z, wpd_outfile *f, wpd_error *err)
     }
     if (z->out.oom)
         return fail_memory(z, err);
-    if (z->nchunks == z->cap) {
-        size_t cap = z->cap ? 2 * z->cap : 64;
-        uint32_t *s = realloc(z->sizes, cap * sizeof *s);
-        if (!s)
-            return fail_memory(z, err);
-        z->sizes = s, z->cap = cap;
-    }
+    if (room_for_chunks(z, 1))
+        return fail_memory(z, err);
     z->sizes[z->nchunks++] = (uint32_t)z->out.len;
     z->chunk_bytes += z->out.len;
     z->in_chunk = 0;
@@ -267,5 +277,29 @@ int wpd_laz_writer_finish(wpd_laz_writer *z, wpd_outfile *f, uint64_t points_sta
         wpd_outfile_pwrite(f, at, sizeof at, (long long)points_start, err))
         return -1;
     *end = table + z->out.len;
+    return 0;
+}
+
+int wpd_laz_writer_end_part(wpd_laz_writer *z, wpd_outfile *f, uint64_t *nchunks,
+                            const uint32_t **sizes, wpd_error *err)
+{
+    if (z->in_chunk && close_chunk(z, f, err))
+        return -1;
+    *nchunks = z->nchunks;
+    *sizes = z->sizes;
+    return 0;
+}
+
+int wpd_laz_writer_add_chunks(wpd_laz_writer *z, const uint32_t *sizes, uint64_t n,
+                              uint64_t bytes, wpd_error *err)
+{
+    if (z->in_chunk) /* a part after a chunk cut short: the table would lie */
+        return wpd_fail(err, WPD_E_USAGE, "internal error: %s: a part after %u points of a "
+                        "chunk", z->path, z->in_chunk);
+    if (n > SIZE_MAX / sizeof *sizes || room_for_chunks(z, (size_t)n))
+        return fail_memory(z, err);
+    memcpy(z->sizes + z->nchunks, sizes, (size_t)n * sizeof *sizes);
+    z->nchunks += (size_t)n;
+    z->chunk_bytes += bytes;
     return 0;
 }

@@ -328,6 +328,8 @@ static int ply_finish(wpd_writer *w, wpd_error *err)
     ply_writer *pw = w->impl;
     if (flush(w, pw, err))
         return -1;
+    if (w->part) /* records only (writer.h) */
+        return 0;
     char lines[96];
     int n = count_lines(lines, sizeof lines, w->count);
     return wpd_outfile_pwrite(&w->out, lines, (size_t)n, pw->patch_offset, err);
@@ -348,7 +350,21 @@ static void ply_close_writer(wpd_writer *w)
     w->impl = NULL;
 }
 
-static const wpd_writer_ops ply_writer_ops = {ply_write, ply_finish, ply_close_writer};
+/* A part (writer.h): its records, written out; the count is generic. */
+static int ply_end_part(wpd_writer *w, wpd_write_part *part, wpd_error *err)
+{
+    (void)part;
+    return flush(w, w->impl, err);
+}
+
+static int ply_add_part(wpd_writer *w, const wpd_write_part *part, wpd_error *err)
+{
+    (void)w, (void)part, (void)err;
+    return 0;
+}
+
+static const wpd_writer_ops ply_writer_ops = {ply_write, ply_finish, ply_close_writer,
+                                              ply_end_part, ply_add_part};
 
 int wpd_ply_open_writer(wpd_writer *w, wpd_error *err)
 {
@@ -364,7 +380,7 @@ int wpd_ply_open_writer(wpd_writer *w, wpd_error *err)
         wpd_fail(err, WPD_E_MEMORY, "%s: out of memory", w->out.final_path);
         goto fail;
     }
-    if (write_header(w, pw, err))
+    if (!w->part && write_header(w, pw, err))
         goto fail;
     w->impl = pw;
     w->ops = &ply_writer_ops;

@@ -3,12 +3,21 @@
 #include "io/format.h"
 #include "io/layout.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
-wpd_writer *wpd_writer_open(const char *path, const wpd_header *hdr,
-                            const wpd_write_options *opt, wpd_error *err)
+/* The file position of w's output. */
+static uint64_t position(const wpd_writer *w)
+{
+    off_t at = lseek(w->out.fd, 0, SEEK_CUR);
+    return at < 0 ? 0 : (uint64_t)at;
+}
+
+static wpd_writer *open_writer(const char *path, const wpd_header *hdr,
+                               const wpd_write_options *opt, int part, wpd_error *err)
 {
     if (hdr->format != WPD_FMT_LAS && hdr->format != WPD_FMT_PLY) {
         wpd_fail(err, WPD_E_USAGE, "%s: no output format", path);
@@ -22,6 +31,7 @@ wpd_writer *wpd_writer_open(const char *path, const wpd_header *hdr,
     }
     if (opt)
         w->opt = *opt;
+    w->part = part;
     snprintf(w->hdr.path, sizeof w->hdr.path, "%s", path);
     /* LAS or LAZ by the name, whatever the input was: the LAZ facts of a
      * compressed input describe its encoding, not the output's. */
@@ -38,8 +48,56 @@ wpd_writer *wpd_writer_open(const char *path, const wpd_header *hdr,
         wpd_writer_abort(w);
         return NULL;
     }
+    w->records_start = position(w);
     return w;
 }
+
+wpd_writer *wpd_writer_open(const char *path, const wpd_header *hdr,
+                            const wpd_write_options *opt, wpd_error *err)
+{
+    return open_writer(path, hdr, opt, 0, err);
+}
+
+wpd_writer *wpd_writer_open_part(const char *path, const wpd_header *hdr,
+                                 const wpd_write_options *opt, wpd_error *err)
+{
+    wpd_write_options o = opt ? *opt : (wpd_write_options){0};
+    o.overwrite = 1; /* a part's name is never taken: only its temporary one */
+    return open_writer(path, hdr, &o, 1, err);
+}
+
+int wpd_writer_end_part(wpd_writer *w, wpd_write_part *part, wpd_error *err)
+{
+    memset(part, 0, sizeof *part);
+    if (w->ops->end_part(w, part, err))
+        return -1;
+    part->count = w->count;
+    part->bytes = position(w) - w->records_start;
+    return 0;
+}
+
+int wpd_writer_add_part(wpd_writer *w, const wpd_write_part *part, wpd_error *err)
+{
+    if (w->ops->add_part(w, part, err))
+        return -1;
+    w->count += part->count;
+    if (lseek(w->out.fd, (off_t)part->bytes, SEEK_CUR) < 0)
+        return wpd_fail(err, WPD_E_IO, "%s: %s", w->out.final_path, strerror(errno));
+    return 0;
+}
+
+const char *wpd_writer_temp_path(const wpd_writer *w) { return w->out.temp_path; }
+
+int wpd_writer_place_part(const wpd_writer *w, const char *temp_path, uint64_t off,
+                          wpd_error *err)
+{
+    wpd_outfile dest = {.fd = -1};
+    snprintf(dest.final_path, sizeof dest.final_path, "%s", w->out.final_path);
+    snprintf(dest.temp_path, sizeof dest.temp_path, "%s", temp_path);
+    return wpd_outfile_place(&w->out, position(w) - w->records_start, &dest, off, err);
+}
+
+uint64_t wpd_writer_records_end(const wpd_writer *w) { return position(w); }
 
 int wpd_writer_write(wpd_writer *w, const wpd_batch *b, wpd_error *err)
 {

@@ -135,6 +135,9 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     if (!res->file_count)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     memcpy(res->file_count, run->scan.file_count, (size_t)res->nfiles * sizeof *res->file_count);
+    res->nunits = run->scan.nunits;
+    res->unit_points = run->scan.unit_points;
+    run->scan.unit_points = NULL;
     double t = omp_get_wtime();
     res->radius_estimate = res->radius = estimate_radius(run);
     /* The halo carries the input surface across borders for smoothing:
@@ -296,6 +299,7 @@ void wpd_resample_result_free(wpd_resample_result *res)
     free(res->file_samples);
     free(res->file_bounds);
     free(res->file_count);
+    free(res->unit_points);
     free(res->tile_box);
     memset(res, 0, sizeof *res);
 }

@@ -52,6 +52,7 @@ typedef struct pass_state {
     uint64_t next_turn;       /* under mu */
     uint64_t commit_gid;      /* global index of the next committed point: the
                                  turn's holder's alone */
+    _Atomic int stopped;      /* a commit said the pass needs no more */
     wpd_first_error fe;
 } pass_state;
 
@@ -84,11 +85,14 @@ static int commit(pass_state *s, wpd_pass_batch *pb, wpd_error *err)
 {
     /* No commit after a failure: the mutex of the turns orders this check
      * after any failure of an earlier commit. */
-    if (wpd_first_error_failed(&s->fe))
+    if (wpd_first_error_failed(&s->fe) || atomic_load(&s->stopped))
         return 0;
     pb->first_gid = s->commit_gid;
-    if (s->p->commit(s->p->arg, pb, err))
+    int rc = s->p->commit(s->p->arg, pb, err);
+    if (rc < 0)
         return -1;
+    if (rc > 0)
+        atomic_store(&s->stopped, 1);
     s->commit_gid += pb->batch->n;
     wpd_progress_add(s->p->progress, pb->batch->n);
     return 0;
@@ -130,7 +134,7 @@ static void run_unit(pass_state *s, int l, uint64_t u)
     uint64_t gid = p->every_record_finite ? first : WPD_PASS_GID_UNKNOWN;
     int have_turn = 0;
     while (ok && !wpd_first_error_failed(&s->fe)) {
-        wpd_pass_batch pb = {&ln->batch, 0, l, gid};
+        wpd_pass_batch pb = {&ln->batch, 0, l, gid, u};
         long got = wpd_cloud_read(ln->cloud, &ln->batch, &pb.file, &err);
         if (got <= 0) {
             ok = got == 0;
@@ -162,7 +166,7 @@ static void run_unit(pass_state *s, int l, uint64_t u)
 
 static void run_parallel(pass_state *s, int l)
 {
-    while (!wpd_first_error_failed(&s->fe)) {
+    while (!wpd_first_error_failed(&s->fe) && !atomic_load(&s->stopped)) {
         uint64_t u = atomic_fetch_add(&s->next_unit, 1);
         if (u >= s->unit_first[s->nfiles])
             break;
@@ -187,11 +191,11 @@ static void run_serial(pass_state *s, int l)
     lane *ln = &s->lanes[l];
     for (;;) {
         wpd_error err = {0};
-        wpd_pass_batch pb = {&ln->batch, 0, l, 0};
+        wpd_pass_batch pb = {&ln->batch, 0, l, 0, WPD_PASS_NO_UNIT};
         long got = 0;
         uint64_t seq = 0;
         pthread_mutex_lock(&s->mu);
-        if (!s->done && !wpd_first_error_failed(&s->fe)) {
+        if (!s->done && !wpd_first_error_failed(&s->fe) && !atomic_load(&s->stopped)) {
             got = wpd_cloud_read(s->shared, &ln->batch, &pb.file, &err);
             if (got > 0) {
                 seq = s->next_seq++;
@@ -295,6 +299,33 @@ static int plan_units(pass_state *s, wpd_error *err)
     return 0;
 }
 
+/* Records a lane's batch holds (wpd_batch_init's capacity): the unit. */
+static uint64_t batch_capacity(uint32_t record_size)
+{
+    size_t most = WPD_BATCH_MAX_BYTES / (record_size ? record_size : 1);
+    return WPD_BATCH_POINTS > most ? (most ? most : 1) : WPD_BATCH_POINTS;
+}
+
+int wpd_pass_units(const wpd_cloud *c, uint64_t *units, wpd_error *err)
+{
+    *units = 0;
+    if (!wpd_cloud_can_seek(c))
+        return 0;
+    wpd_pass p = {.cloud = (wpd_cloud *)c};
+    pass_state s = {.p = &p, .end = wpd_cloud_count(c),
+                    .unit = batch_capacity(wpd_cloud_header(c, 0)->schema.record_size)};
+    int rc = plan_units(&s, err);
+    if (rc == 0)
+        *units = s.unit_first[s.nfiles];
+    free(s.file_first);
+    free(s.unit_first);
+    free(s.file_unit);
+    for (int f = 0; s.file_starts && f < s.nfiles; f++)
+        free(s.file_starts[f]);
+    free(s.file_starts);
+    return rc;
+}
+
 /* The lanes' batches and clouds, and the units. */
 static int setup(pass_state *s, wpd_error *err)
 {
@@ -309,8 +340,13 @@ static int setup(pass_state *s, wpd_error *err)
         return (s->shared = wpd_cloud_reopen(p->cloud, err)) ? 0 : -1;
     /* One batch holds a unit: every lane's batch has the same capacity. */
     s->unit = s->lanes[0].batch.cap;
+    if (s->unit != batch_capacity(rs))
+        return wpd_fail(err, WPD_E_USAGE, "internal error: a unit is not a batch");
     if (plan_units(s, err))
         return -1;
+    atomic_store(&s->next_unit, p->first_unit);
+    s->next_turn = p->first_unit;
+    s->commit_gid = p->first_gid;
     /* Each lane's reader of the first file is opened here, before any
      * point is read: a file that shrinks while it is read then fails as
      * "ends after" in the reads, never in a late lane's header. */
@@ -358,7 +394,11 @@ int wpd_pass_run(const wpd_pass *p, wpd_error *err)
     s.end = whole ? records : p->end;
     /* Serial with one lane too: seeking buys nothing there, unless the
      * units are shared with other processes (which then skip the others'). */
-    s.parallel = (p->threads > 1 || p->shares > 1) && wpd_cloud_can_seek(p->cloud);
+    s.parallel = (p->threads > 1 || p->shares > 1 || p->first_unit) &&
+                 wpd_cloud_can_seek(p->cloud);
+    if (p->first_unit && !s.parallel)
+        return wpd_fail(err, WPD_E_USAGE, "internal error: a pass from unit %llu of a cloud "
+                        "that cannot seek", (unsigned long long)p->first_unit);
     pthread_mutex_init(&s.mu, NULL);
     pthread_cond_init(&s.turn, NULL);
     int rc = setup(&s, err);
@@ -373,7 +413,7 @@ int wpd_pass_run(const wpd_pass *p, wpd_error *err)
         }
         rc = wpd_first_error_take(&s.fe, err);
     }
-    if (rc == 0 && whole && p->shares < 2)
+    if (rc == 0 && whole && p->shares < 2 && !p->first_unit && !atomic_load(&s.stopped))
         hand_back_counts(&s);
     teardown(&s);
     pthread_mutex_destroy(&s.mu);

@@ -54,6 +54,7 @@
 
 #define WPD_PASS_GID_UNKNOWN UINT64_MAX
 #define WPD_PASS_MAX_UNIT (1u << 20) /* records of a unit at most (LAZ chunks) */
+#define WPD_PASS_NO_UNIT UINT64_MAX
 
 typedef struct wpd_pass_batch {
     const wpd_batch *batch;   /* the finite points read (owned by the pass) */
@@ -61,8 +62,12 @@ typedef struct wpd_pass_batch {
     int lane;                 /* 0 .. threads-1: index of the caller's lane state */
     uint64_t first_gid;       /* global index of the first point, or
                                  WPD_PASS_GID_UNKNOWN (lane calls only) */
+    uint64_t unit;            /* parallel reading: the unit read (wpd_pass_units
+                                 numbers them); serial reading: WPD_PASS_NO_UNIT */
 } wpd_pass_batch;
 
+/* Returns 0, or -1 with err set; a commit may also return 1: the pass
+ * needs no more batches (it ends after this one, no later commit). */
 typedef int (*wpd_pass_fn)(void *arg, wpd_pass_batch *pb, wpd_error *err);
 
 typedef struct wpd_pass {
@@ -83,7 +88,19 @@ typedef struct wpd_pass {
                                  others those of the other shares (the ranks of
                                  an MPI run); the cloud's counts are then left
                                  untouched. 0, 0: everything */
+    uint64_t first_unit;      /* > 0 (ordered passes, parallel reading only): start
+                                 at this unit, whose first finite point has the
+                                 global index first_gid (wpd_pass_units); the
+                                 cloud's counts are then left untouched */
+    uint64_t first_gid;
 } wpd_pass;
+
+/* The units a pass over the whole of c reads in parallel: their number in
+ * *units (0 when c cannot seek: reading is serial). They depend on the
+ * files alone, never on the threads or the pass, so that finite points
+ * counted per unit in one pass (wpd_pass_batch.unit) tell a later pass
+ * where a global index is (first_unit). Returns 0, or -1 with err set. */
+int wpd_pass_units(const wpd_cloud *c, uint64_t *units, wpd_error *err);
 
 /* Bytes one lane of a pass over c costs: its batch and its cloud. */
 size_t wpd_pass_lane_bytes(const wpd_cloud *c);

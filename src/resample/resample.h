@@ -75,6 +75,10 @@ typedef struct wpd_resample_result {
     uint64_t input_points;    /* finite input points */
     int nfiles;
     uint64_t *file_count;     /* [nfiles] finite points per input file */
+    uint64_t nunits;          /* several ranks, inputs that can seek: the units of */
+    uint64_t *unit_points;    /* the scan and their finite points (wpd_pass_units),
+                                 which split the records pass between the ranks;
+                                 else 0, NULL */
     double radius_estimate, radius;
     size_t first_pass_count, poisson_count;
     int passes;               /* Poisson passes over the input */
@@ -131,5 +135,16 @@ typedef int (*wpd_sample_sink)(void *arg, int file, const double *xyz, const uin
 int wpd_resample_stream_records(wpd_cloud *cloud, wpd_run_merge *samples, size_t mem_bytes,
                                 int threads, wpd_progress *progress, wpd_sample_sink sink,
                                 void *arg, wpd_error *err);
+
+/* The records pass of one share of the output: the samples first ..
+ * first + count - 1 (in global-index order) of `samples`, read from the
+ * unit that holds the first of them (unit_points: the finite points of
+ * each of the nunits units, wpd_pass_units) until the last is out. The
+ * ranks of an MPI run each write their share (docs/scale-out.md). Same
+ * contract as wpd_resample_stream_records otherwise; count 0: nothing. */
+int wpd_resample_stream_share(wpd_cloud *cloud, wpd_run_merge *samples, uint64_t first,
+                              uint64_t count, const uint64_t *unit_points, uint64_t nunits,
+                              size_t mem_bytes, int threads, wpd_progress *progress,
+                              wpd_sample_sink sink, void *arg, wpd_error *err);
 
 #endif

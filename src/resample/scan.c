@@ -107,6 +107,8 @@ static void count_batch(const wpd_scan *s, counter *c, const wpd_batch *b)
 typedef struct count_job {
     const wpd_scan *scan;     /* NULL: the bounds pass */
     counter *c;               /* [lanes] */
+    uint64_t *unit_points;    /* [units] or NULL: finite points per unit (a unit is
+                                 read by one lane: no two write one entry) */
 } count_job;
 
 static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
@@ -120,6 +122,8 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
     if (job->scan)
         count_batch(job->scan, &mine, pb->batch);
     job->c[pb->lane] = mine;
+    if (job->unit_points && pb->unit != WPD_PASS_NO_UNIT)
+        job->unit_points[pb->unit] += pb->batch->n;
     if (mine.failed)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     return 0;
@@ -131,7 +135,7 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 static int count_cloud(wpd_cloud *cloud, const wpd_par *par, const wpd_scan *scan,
                        counter *c, int threads, wpd_progress *pg, wpd_error *err)
 {
-    count_job job = {scan, c};
+    count_job job = {scan, c, scan ? scan->unit_points : NULL};
     int ranks = wpd_par_ranks(par);
     wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &job,
                      .progress = pg, .share = ranks > 1 ? wpd_par_rank(par) : 0,
@@ -298,6 +302,8 @@ static int scan_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, size_t v
     counter *c = s->density ? counters_new(cloud, s, voxel_cap, threads, cells) : NULL;
     if (!c)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
+    if (s->unit_points)
+        memset(s->unit_points, 0, s->nunits * sizeof *s->unit_points);
     int rc = count_cloud(cloud, par, s, c, threads, pg, err);
     if (rc == 0 && combine_lanes(s, c, threads, cells))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
@@ -306,6 +312,8 @@ static int scan_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, size_t v
     rc = sum_box_over_ranks(par, rc, actual, s->file_count, s->nfiles, err);
     if (rc == 0)
         rc = combine_ranks(par, s, c, cells, err);
+    if (rc == 0 && s->unit_points) /* each unit was counted by one rank */
+        rc = wpd_par_sum_u64(par, s->unit_points, s->nunits, err);
     if (rc == 0 && finish_counts(s, c, cells))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     counters_free(c, threads);
@@ -324,6 +332,14 @@ int wpd_scan_run(wpd_cloud *cloud, const wpd_par *par, size_t voxel_cap, double 
     out->file_count = calloc((size_t)out->nfiles, sizeof *out->file_count);
     if (!out->file_count)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    /* With several ranks, the points of each unit: where each rank's share
+     * of the records pass starts reading (docs/scale-out.md). */
+    if (wpd_par_ranks(par) > 1 && wpd_pass_units(cloud, &out->nunits, err))
+        goto fail;
+    if (out->nunits && !(out->unit_points = calloc(out->nunits, sizeof *out->unit_points))) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+        goto fail;
+    }
     /* LAS headers declare the box: the scan starts in its frame and checks
      * it (wpd_bounds_tight), saving a pass over the inputs; only when the
      * headers are off does a second scan in the actual frame follow. */
@@ -368,5 +384,6 @@ void wpd_scan_free(wpd_scan *s)
 {
     free(s->file_count);
     free(s->density);
+    free(s->unit_points);
     memset(s, 0, sizeof *s);
 }
