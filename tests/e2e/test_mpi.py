@@ -2,6 +2,7 @@
 gives the plain binary's bytes for every K, and a rank that fails makes every
 rank exit with the documented code, leaving no output and no spill."""
 import filecmp
+import json
 import os
 import shutil
 import subprocess
@@ -113,6 +114,69 @@ def test_one_summary_and_one_report_from_rank_0():
     assert os.path.exists("r.json") and os.path.exists("out.las")
     p = mpirun(2, "info", "in.las")
     assert p.stdout.count("format:") == 1, p.stdout
+
+
+def nonfinite_ply(path, n):
+    """A binary PLY of n points on a wavy sheet, one in 17 with a NaN x and
+    one in 53 with an infinite z (dropped: global indices skip them)."""
+    import math
+    import struct
+    with open(path, "wb") as f:
+        f.write(b"ply\nformat binary_little_endian 1.0\nelement vertex %d\n"
+                b"property double x\nproperty double y\nproperty double z\n"
+                b"property ushort intensity\nend_header\n" % n)
+        for i in range(n):
+            x, y = (i * 0.6180339887) % 1 * 100, (i * 0.7548776662) % 1 * 100
+            z = math.sin(x / 7) * 3 + (i % 10) * 0.01
+            f.write(struct.pack("<dddH", math.nan if i % 17 == 5 else x, y,
+                                math.inf if i % 53 == 7 else z, i % 65536))
+
+
+def report_writers(path):
+    with open(path) as f:
+        return json.load(f)["writers"]
+
+
+def test_every_rank_writes_its_share_of_one_output():
+    """Each rank reads the records of its share (whole LAZ chunks, rank 0's
+    empty on 3 ranks at 130 000 points) and writes them: rank 0 into the
+    output, the others through part files placed at their offsets; the
+    bytes are the plain binary's for LAS, LAZ and ASCII PLY, and for an
+    input whose non-finite points shift the global indices."""
+    synth("in.las", 300000, 12)
+    nonfinite_ply("nan.ply", 200000)
+    os.makedirs("spill")
+    cases = [("in.las", "las", ()), ("in.las", "laz", ("--min-tiles", 4)),
+             ("in.las", "ply", ("--ascii",)), ("nan.ply", "ply", ("--min-tiles", 3))]
+    for src, ext, opts in cases:
+        wpd("resample", src, "-o", "plain." + ext, "-n", 130000, "-q", "--force", *opts)
+        for ranks in (2, 3):
+            mpirun(ranks, "resample", src, "-o", "mpi." + ext, "-n", 130000, "-q", "--force",
+                   "--tmpdir", "spill", "--report", "r.json", *opts)
+            assert filecmp.cmp("plain." + ext, "mpi." + ext, shallow=False), (src, ext, ranks)
+            assert report_writers("r.json") == ranks, (src, ext, ranks)
+            assert os.listdir("spill") == [], os.listdir("spill")
+    # Where the records cannot be read from a share (--metrics keeps every
+    # output point on rank 0), rank 0 writes alone: the same bytes.
+    mpirun(3, "resample", "in.las", "-o", "mpi.las", "-n", 130000, "-q", "--force",
+           "--metrics", "--report", "r.json")
+    wpd("resample", "in.las", "-o", "plain.las", "-n", 130000, "-q", "--force")
+    assert filecmp.cmp("plain.las", "mpi.las", shallow=False)
+    assert report_writers("r.json") == 1
+
+
+def test_a_rank_that_cannot_write_its_part_fails_every_rank():
+    """The second rank's part of the output passes its file size limit:
+    every rank exits 3, no output, no part file, no temporary output."""
+    synth("in.las", 300000, 13)
+    os.makedirs("spill")
+    p = mpirun(3, "resample", "in.las", "-o", "out.las", "-n", 150000, "--tmpdir", "spill",
+               rank1_prefix="ulimit -f 500;", check=False)
+    assert p.returncode == 3, (p.returncode, p.stderr)
+    assert "wpd-part.las: write failed" in p.stderr, p.stderr
+    assert os.listdir("spill") == [], os.listdir("spill")
+    assert [f for f in os.listdir(".") if f.startswith("out") or ".out" in f] == [], \
+        os.listdir(".")
 
 
 def test_a_bad_input_fails_every_rank_with_code_2():
