@@ -40,10 +40,11 @@ import json, sys
 name, wall, path = sys.argv[1], float(sys.argv[2]), sys.argv[3]
 r = json.load(open(path))
 s = r["seconds"]
-phases = " ".join("%s %.1f" % (k, s[k]) for k in ("scan", "tile", "poisson", "exact", "smooth"))
-print("%-10s %6.1f s  %s  rank RSS %d MB  exchanged %d MB (%.2f B a point)" % (
+phases = " ".join("%s %.1f" % (k, s[k]) for k in ("scan", "tile", "poisson", "exact", "smooth",
+                                                     "write"))
+print("%-10s %6.1f s  %s  rank RSS %d MB  exchanged %d MB (%.2f B a point)  writers %d" % (
     name, wall, phases, r["peak_rss_bytes"] >> 20, r["exchanged_bytes"] >> 20,
-    r["exchanged_bytes"] / r["input_points"]))
+    r["exchanged_bytes"] / r["input_points"], r.get("writers", 1)))
 EOF
 }
 

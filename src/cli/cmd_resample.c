@@ -632,7 +632,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
                  "percentage", o->count_text);
         goto done;
     }
-    if (writer && pending_open(&pending, cloud, o, err))
+    /* Every rank: with --per-input each may write some of the outputs. */
+    if (pending_open(&pending, cloud, o, err))
         goto done;
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
@@ -682,6 +683,10 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     rc = wpd_ranks_run_facts(o->par, rc, &info, err);
     rc = wpd_ranks_outcome(o->par, rc, err);
     agreed = 1;
+    /* Outputs another rank wrote are rank 0's to put in place (it has
+     * their names): they must outlive this rank. */
+    if (rc == 0 && !writer && pending.files)
+        wpd_outfile_clear_all(pending.files, pending.nout + 1);
     if (rc == 0 && writer)
         rc = deliver(&info, &metrics_json, &sel, &pending, o, err);
 done:

@@ -113,12 +113,20 @@ static int close_output(writing *ws, wpd_error *err)
     return rc;
 }
 
-/* Finishes every output before k (empty ones included) and opens k. */
-static int advance_to(writing *ws, int k, wpd_error *err)
+/* Finishes every output before k (empty ones included). */
+static int finish_before(writing *ws, int k, wpd_error *err)
 {
     while (ws->done < k)
         if ((!ws->open && open_output(ws, err)) || close_output(ws, err))
             return -1;
+    return 0;
+}
+
+/* Finishes every output before k and opens k. */
+static int advance_to(writing *ws, int k, wpd_error *err)
+{
+    if (finish_before(ws, k, err))
+        return -1;
     return ws->open || k >= ws->nout ? 0 : open_output(ws, err);
 }
 
@@ -207,8 +215,7 @@ const char *wpd_per_input_path(const char *outdir, const char *input, char *buf,
 
 int wpd_selection_shared(const wpd_selection *sel, const wpd_selection_target *target)
 {
-    return wpd_par_ranks(target->par) > 1 && target->path && sel->share_source &&
-           !sel->xyz_out;
+    return wpd_par_ranks(target->par) > 1 && sel->share_source && !sel->xyz_out;
 }
 
 /* Rank r's share of n samples: whole LAZ chunks but for the last rank's
@@ -337,9 +344,10 @@ static int join_parts(writing *ws, const uint8_t *all, const size_t *off, const 
     return 0;
 }
 
-int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
-                               const wpd_selection_target *target, wpd_outfile *pending,
-                               wpd_error *err)
+/* One output written by every rank (wpd_selection_write_shared). */
+static int write_one_shared(const wpd_selection *sel, wpd_cloud *cloud,
+                            const wpd_selection_target *target, wpd_outfile *pending,
+                            wpd_error *err)
 {
     const wpd_par *par = target->par;
     int me = wpd_par_rank(par);
@@ -388,4 +396,114 @@ int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
     if (rc && pending)
         wpd_outfile_abort_all(pending, 1);
     return rc;
+}
+
+/* --per-input: rank r's outputs, files [*lo, *hi): file f goes to the
+ * rank its first sample's place in the output falls to, so that the ranks
+ * get runs of whole files of about n / K samples each. */
+static void files_of(const wpd_selection *sel, int nfiles, int ranks, int r, int *lo, int *hi)
+{
+    uint64_t before = 0;
+    *lo = *hi = nfiles;
+    for (int f = 0; f < nfiles; f++) {
+        int owner = (int)((unsigned __int128)before * (unsigned)ranks / (sel->n ? sel->n : 1));
+        owner = owner < ranks ? owner : ranks - 1;
+        if (owner == r && *lo == nfiles)
+            *lo = f;
+        if (owner > r && *hi == nfiles)
+            *hi = f;
+        before += sel->file_samples[f];
+    }
+    if (*lo > *hi)
+        *lo = *hi;
+}
+
+/* The ranks' temporary output names to every rank; rank 0 takes those of
+ * the other ranks' files into pending (it renames them all). */
+static int gather_names(writing *ws, int rc, int lo, int hi, wpd_error *err)
+{
+    const wpd_par *par = ws->target->par;
+    size_t ranks = (size_t)wpd_par_ranks(par);
+    wpd_bytes b = {0};
+    for (int k = lo; rc == 0 && k < hi; k++) {
+        size_t n = strlen(ws->pending[k].temp_path);
+        wpd_bytes_put_u64(&b, n);
+        wpd_bytes_put(&b, ws->pending[k].temp_path, n);
+    }
+    uint8_t *all = NULL;
+    size_t *off = calloc(ranks, sizeof *off), *len = calloc(ranks, sizeof *len);
+    if (rc == 0 && (b.failed || !off || !len))
+        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    if (rc == 0)
+        wpd_error_clear(err);
+    /* A failure anywhere makes every rank fail at the agreement. */
+    rc = wpd_par_agree(par, err) || wpd_par_gather_all(par, b.p, b.len, &all, off, len, err)
+             ? -1 : 0;
+    for (size_t r = 1; rc == 0 && wpd_par_rank(par) == 0 && r < ranks; r++) {
+        wpd_bytes_in in = {all + off[r], len[r], 0, 0};
+        int first, last;
+        files_of(ws->sel, ws->nout, (int)ranks, (int)r, &first, &last);
+        for (int k = first; rc == 0 && k < last; k++) {
+            wpd_outfile *f = &ws->pending[k];
+            uint64_t n = wpd_bytes_get_u64(&in);
+            if (in.bad || n >= sizeof f->temp_path || wpd_bytes_get(&in, f->temp_path, n)) {
+                rc = wpd_fail(err, WPD_E_IO, "%s: a rank's output names are cut short",
+                              ws->target->outdir);
+                break;
+            }
+            f->temp_path[n] = '\0';
+            f->fd = -1;
+            wpd_per_input_path(ws->target->outdir, input_of(ws, k)->path, f->final_path,
+                               sizeof f->final_path);
+        }
+    }
+    wpd_bytes_free(&b);
+    free(all);
+    free(off);
+    free(len);
+    return rc;
+}
+
+/* --per-input by every rank: each writes the outputs of its files. */
+static int write_files_shared(const wpd_selection *sel, wpd_cloud *cloud,
+                              const wpd_selection_target *target, wpd_outfile *pending,
+                              wpd_error *err)
+{
+    int ranks = wpd_par_ranks(target->par);
+    writing ws = {.sel = sel, .cloud = cloud, .target = target, .pending = pending};
+    int rc = output_boxes(&ws, err), lo = ws.nout, hi = ws.nout;
+    uint64_t first = 0, count = 0;
+    if (rc == 0) {
+        wpd_outfile_clear_all(pending, ws.nout);
+        files_of(sel, ws.nout, ranks, wpd_par_rank(target->par), &lo, &hi);
+        for (int f = 0; f < hi; f++)
+            *(f < lo ? &first : &count) += sel->file_samples[f];
+        ws.done = lo;
+        ws.limit = count;
+        rc = sel->share_source(sel->source_arg, cloud, first, count, target->mem_bytes,
+                               target->threads, target->progress, write_samples, &ws, err);
+    }
+    if (rc == 0 && ws.written != count)
+        rc = wpd_fail(err, WPD_E_INPUT, "%s: the inputs changed while being resampled",
+                      wpd_cloud_header(cloud, 0)->path);
+    if (rc == 0)
+        rc = finish_before(&ws, hi, err); /* the outputs after the last point */
+    if (ws.open) {
+        wpd_writer_abort(ws.w);
+        wpd_header_free(&ws.out);
+    }
+    rc = gather_names(&ws, rc, lo, hi, err);
+    wpd_batch_free(&ws.dst);
+    free(ws.box);
+    if (rc && ws.nout)
+        wpd_outfile_abort_all(pending, ws.nout);
+    return rc;
+}
+
+int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
+                               const wpd_selection_target *target, wpd_outfile *pending,
+                               wpd_error *err)
+{
+    return target->path ? write_one_shared(sel, cloud, target, pending, err)
+                        : write_files_shared(sel, cloud, target, pending, err);
 }

@@ -89,22 +89,33 @@ def check_rounds(n, ranks):
     # Each rank spilled its own tiles: together the plain run's spill.
     assert mine["spill"]["points"] == plain["spill"]["points"], (mine["spill"], plain["spill"])
     assert mine["ranks"] == ranks and mine["exchanged_bytes"] > 0, mine
-    assert plain["ranks"] == 1 and plain["exchanged_bytes"] == 0
+    assert plain["ranks"] == 1 and plain["exchanged_bytes"] == 0 and plain["writers"] == 1
 
 
 def test_ply_and_per_input_outputs_give_the_plain_bytes():
     synth("a.las", 150000, 4)
     synth("b.las", 120000, 5)
+    os.makedirs("plain")
     wpd("resample", "a.las", "-o", "plain.ply", "-n", 3000, "-q", "--min-tiles", 4)
     mpirun(3, "resample", "a.las", "-o", "mpi.ply", "-n", 3000, "-q", "--min-tiles", 4)
     assert filecmp.cmp("plain.ply", "mpi.ply", shallow=False)
-    for d in ("plain", "mpi"):
-        os.makedirs(d)
-    wpd("resample", "a.las", "b.las", "--per-input", "plain", "-n", 4000, "-q")
-    mpirun(2, "resample", "a.las", "b.las", "--per-input", "mpi", "-n", 4000, "-q")
-    assert sorted(os.listdir("plain")) == sorted(os.listdir("mpi")) == ["a.las", "b.las"]
-    for f in ("a.las", "b.las"):
-        assert filecmp.cmp(os.path.join("plain", f), os.path.join("mpi", f), shallow=False), f
+    # --per-input: each rank writes the outputs of a run of whole files
+    # (c.las, 40 points, gets a handful of the 4000).
+    synth("c.las", 40, 6)
+    synth("d.las", 90000, 7)
+    names = ["a.las", "b.las", "c.las", "d.las"]
+    wpd("resample", *names, "--per-input", "plain", "-n", 4000, "-q")
+    for ranks in (2, 3, 4):
+        shutil.rmtree("mpi", ignore_errors=True)
+        os.makedirs("mpi")
+        mpirun(ranks, "resample", *names, "--per-input", "mpi", "-n", 4000, "-q",
+               "--report", "r.json")
+        assert sorted(os.listdir("plain")) == sorted(os.listdir("mpi")) == names, \
+            os.listdir("mpi")
+        for f in names:
+            assert filecmp.cmp(os.path.join("plain", f), os.path.join("mpi", f),
+                               shallow=False), (ranks, f)
+        assert report_writers("r.json") == ranks
 
 
 def test_one_summary_and_one_report_from_rank_0():
@@ -177,6 +188,20 @@ def test_a_rank_that_cannot_write_its_part_fails_every_rank():
     assert os.listdir("spill") == [], os.listdir("spill")
     assert [f for f in os.listdir(".") if f.startswith("out") or ".out" in f] == [], \
         os.listdir(".")
+
+
+def test_a_rank_that_cannot_write_its_per_input_outputs_fails_every_rank():
+    """With --per-input the last rank's outputs pass its file size limit
+    after the others finished theirs: every rank exits 3 and the folder
+    holds no output and no temporary one."""
+    synth("a.las", 200000, 14)
+    synth("b.las", 200000, 15)
+    os.makedirs("out")
+    p = mpirun(2, "resample", "a.las", "b.las", "--per-input", "out", "-n", 100000,
+               rank1_prefix="ulimit -f 500;", check=False)
+    assert p.returncode == 3, (p.returncode, p.stderr)
+    assert "write failed" in p.stderr, p.stderr
+    assert os.listdir("out") == [], os.listdir("out")
 
 
 def test_a_bad_input_fails_every_rank_with_code_2():
