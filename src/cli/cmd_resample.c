@@ -666,10 +666,13 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (rc == 0 && o->metrics && !(sel.xyz_out = malloc((res.count ? res.count : 1) * 3 *
                                                          sizeof *sel.xyz_out)))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the metrics");
-    info.dropped = wpd_cloud_dropped(cloud);
-    if (rc == 0 && wpd_cloud_dropped(cloud) && !o->quiet)
+    /* Where the ranks share the reading no rank reads everything: the scan
+     * summed the ranks' counts (a run by class reads whole on rank 0). */
+    info.dropped = wpd_par_ranks(o->par) > 1 && !classes.ngroups ? res.dropped
+                                                                 : wpd_cloud_dropped(cloud);
+    if (rc == 0 && info.dropped && !o->quiet)
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
-                "dropped\n", (unsigned long long)wpd_cloud_dropped(cloud));
+                "dropped\n", (unsigned long long)info.dropped);
     double tw = omp_get_wtime();
     /* The records pass reads every input point: progress in those. */
     wpd_progress_phase(&o->progress, "write", res.input_points, "points");

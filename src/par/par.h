@@ -74,6 +74,12 @@ int wpd_par_or_u8(const wpd_par *par, uint8_t *v, size_t n, wpd_error *err);
 int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t **all,
                        size_t *off, size_t *len, wpd_error *err);
 
+/* wpd_par_gather_all with one receiver: only rank root gets *all (the
+ * others NULL); off and len are filled on every rank. Returns 0 or -1 as
+ * wpd_par_gather_all. */
+int wpd_par_gather_to(const wpd_par *par, int root, const void *mine, size_t n, uint8_t **all,
+                      size_t *off, size_t *len, wpd_error *err);
+
 /* Payload bytes this rank has handed to exchanges so far: a reduction's
  * array once, a gather's part once for every other rank. */
 uint64_t wpd_par_sent(const wpd_par *par);

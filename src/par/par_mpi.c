@@ -180,10 +180,24 @@ static int all_ok(const wpd_par *par, int ok, wpd_error *err)
  * displacements fit an int, and the round's buffer stays small. */
 #define GATHER_ROUND ((size_t)1 << 28)
 
-int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t **all,
-                       size_t *off, size_t *len, wpd_error *err)
+/* One round of a gather: every rank's bytes [at, at + counts[k]) to every
+ * rank (root < 0) or to root. */
+static int gather_round(const wpd_par *par, int root, const void *from, int mine, void *slice,
+                        const int *counts, const int *displs, wpd_error *err)
+{
+    int mrc = root < 0 ? MPI_Allgatherv(from, mine, MPI_BYTE, slice, counts, displs, MPI_BYTE,
+                                        par->comm)
+                       : MPI_Gatherv(from, mine, MPI_BYTE, slice, counts, displs, MPI_BYTE,
+                                     root, par->comm);
+    return mrc == MPI_SUCCESS ? 0 : (mpi_failed(err, "gather", mrc), -1);
+}
+
+/* wpd_par_gather_all (root < 0) and wpd_par_gather_to (root >= 0). */
+static int gather(const wpd_par *par, int root, const void *mine, size_t n, uint8_t **all,
+                  size_t *off, size_t *len, wpd_error *err)
 {
     size_t ranks = (size_t)par->ranks;
+    int receives = root < 0 || root == par->rank;
     *all = NULL;
     unsigned long long me = n, *each = malloc(ranks * sizeof *each);
     int *counts = malloc(ranks * sizeof *counts), *displs = malloc(ranks * sizeof *displs);
@@ -211,16 +225,19 @@ int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t *
     }
     size_t cut = GATHER_ROUND / ranks < longest ? GATHER_ROUND / ranks : longest;
     cut = cut ? cut : 1;
-    *all = malloc(total ? total : 1);
-    slice = malloc(ranks * cut);
-    all_go = all_ok(par, *all && slice, err);
+    if (receives) {
+        *all = malloc(total ? total : 1);
+        slice = malloc(ranks * cut);
+    }
+    all_go = all_ok(par, !receives || (*all && slice), err);
     if (all_go <= 0) {
         if (all_go == 0)
             wpd_fail(err, WPD_E_MEMORY, "out of memory for an exchange of %zu bytes between "
                      "ranks", total);
         goto done;
     }
-    *par->sent += (uint64_t)n * (uint64_t)(par->ranks - 1);
+    *par->sent += root < 0 ? (uint64_t)n * (uint64_t)(par->ranks - 1)
+                           : root == par->rank ? 0 : (uint64_t)n;
     /* Round j carries bytes [j cut, (j + 1) cut) of every part. */
     for (size_t at = 0; at < longest; at += cut) {
         int pos = 0;
@@ -231,13 +248,10 @@ int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t *
         }
         size_t mine_now = n > at ? (n - at < cut ? n - at : cut) : 0;
         const void *from = mine_now ? (const uint8_t *)mine + at : (const void *)&me;
-        mrc = MPI_Allgatherv(from, (int)mine_now, MPI_BYTE, slice, counts, displs, MPI_BYTE,
-                             par->comm);
-        if (mrc != MPI_SUCCESS) {
-            mpi_failed(err, "gather", mrc);
+        if (gather_round(par, root, from, (int)mine_now, receives ? slice : NULL, counts,
+                         displs, err))
             goto done;
-        }
-        for (size_t k = 0; k < ranks; k++)
+        for (size_t k = 0; receives && k < ranks; k++)
             if (counts[k])
                 memcpy(*all + off[k] + at, slice + displs[k], (size_t)counts[k]);
     }
@@ -252,6 +266,18 @@ done:
     free(counts);
     free(displs);
     return rc;
+}
+
+int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t **all,
+                       size_t *off, size_t *len, wpd_error *err)
+{
+    return gather(par, -1, mine, n, all, off, len, err);
+}
+
+int wpd_par_gather_to(const wpd_par *par, int root, const void *mine, size_t n, uint8_t **all,
+                      size_t *off, size_t *len, wpd_error *err)
+{
+    return gather(par, root, mine, n, all, off, len, err);
 }
 
 uint64_t wpd_par_sent(const wpd_par *par)

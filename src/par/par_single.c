@@ -87,6 +87,13 @@ int wpd_par_gather_all(const wpd_par *par, const void *mine, size_t n, uint8_t *
     return 0;
 }
 
+int wpd_par_gather_to(const wpd_par *par, int root, const void *mine, size_t n, uint8_t **all,
+                      size_t *off, size_t *len, wpd_error *err)
+{
+    (void)root;
+    return wpd_par_gather_all(par, mine, n, all, off, len, err);
+}
+
 uint64_t wpd_par_sent(const wpd_par *par)
 {
     (void)par;

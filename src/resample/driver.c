@@ -98,7 +98,7 @@ static int check_budget(const wpd_run *run, wpd_error *err)
  * input's size). With one thread, compression runs on the tiling thread;
  * with more, as many compression threads wait beside the tilers, each with
  * spares within the write budget where 64 KB buffers allow (at least 2). */
-static int open_spill(wpd_run *run, wpd_error *err)
+int wpd_run_open_spill(wpd_run *run, wpd_tiles *tiles, wpd_error *err)
 {
     wpd_spill_options so;
     wpd_spill_default_options(&so);
@@ -113,7 +113,7 @@ static int open_spill(wpd_run *run, wpd_error *err)
     size_t buffers = (size_t)run->plan.ntiles + (size_t)so.threads * (size_t)so.spares_per_thread;
     size_t per_tile = WPD_BUDGET_SPILL_BUFFERS / buffers;
     so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
-    return wpd_tiles_open_spill(&run->tiles, run->opt->tmpdir, run->plan.ntiles, &so, err);
+    return wpd_tiles_open_spill(tiles, run->opt->tmpdir, run->plan.ntiles, &so, err);
 }
 
 /* scan -> radius -> plan: the frame, the radius and the tiles. */
@@ -130,6 +130,7 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     res->time.bounds = run->scan.bounds_seconds;
     res->time.scan = run->scan.scan_seconds;
     res->input_points = run->scan.count;
+    res->dropped = run->scan.dropped;
     res->nfiles = run->scan.nfiles;
     res->file_count = malloc((size_t)res->nfiles * sizeof *res->file_count);
     if (!res->file_count)
@@ -182,7 +183,7 @@ static int tile_phase(wpd_run *run, wpd_error *err)
 {
     double t = omp_get_wtime();
     int rc = run->res->in_memory ? wpd_tiles_open_memory(&run->tiles, run->scan.count, err)
-                                 : open_spill(run, err);
+                                 : wpd_run_open_spill(run, &run->tiles, err);
     if (rc)
         return -1;
     wpd_progress_phase(run->opt->progress, run->res->in_memory ? "load" : "tile",

@@ -370,6 +370,18 @@ static void hand_back_counts(const pass_state *s)
             wpd_cloud_add_counts(c, s->lanes[l].cloud);
 }
 
+/* The non-finite points this process's reading dropped (wpd_pass.dropped). */
+static uint64_t dropped_here(const pass_state *s)
+{
+    uint64_t n = 0;
+    if (s->shared && (s->p->shares < 2 || s->p->share == 0))
+        n += wpd_cloud_dropped(s->shared);
+    for (int l = 0; s->lanes && l < s->p->threads; l++)
+        if (s->lanes[l].cloud)
+            n += wpd_cloud_dropped(s->lanes[l].cloud);
+    return n;
+}
+
 static void teardown(pass_state *s)
 {
     for (int l = 0; s->lanes && l < s->p->threads; l++) {
@@ -413,6 +425,8 @@ int wpd_pass_run(const wpd_pass *p, wpd_error *err)
         }
         rc = wpd_first_error_take(&s.fe, err);
     }
+    if (rc == 0 && p->dropped)
+        *p->dropped = dropped_here(&s);
     if (rc == 0 && whole && p->shares < 2 && !p->first_unit && !atomic_load(&s.stopped))
         hand_back_counts(&s);
     teardown(&s);

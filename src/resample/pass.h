@@ -93,6 +93,11 @@ typedef struct wpd_pass {
                                  global index first_gid (wpd_pass_units); the
                                  cloud's counts are then left untouched */
     uint64_t first_gid;
+    uint64_t *dropped;        /* or NULL: gets the non-finite points the reading of
+                                 this process's units dropped (with shares and
+                                 serial reading, where every process reads every
+                                 batch: share 0 alone counts them), so that the
+                                 shares' sum is the cloud's */
 } wpd_pass;
 
 /* The units a pass over the whole of c reads in parallel: their number in

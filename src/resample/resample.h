@@ -73,6 +73,7 @@ typedef struct wpd_resample_result {
     uint32_t record_size;
     int moved;                /* 1: coordinates were smoothed */
     uint64_t input_points;    /* finite input points */
+    uint64_t dropped;         /* input points with non-finite coordinates */
     int nfiles;
     uint64_t *file_count;     /* [nfiles] finite points per input file */
     uint64_t nunits;          /* several ranks, inputs that can seek: the units of */

@@ -176,6 +176,17 @@ int wpd_samples_unpack(wpd_tile_samples *s, wpd_bytes_in *in);
 int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
                             wpd_error *err);
 
+/* The spill of a tiled run's points (driver.c): run->tiles, or an
+ * outbox of the same tiles (tile.c). Returns 0 or -1 with err set. */
+int wpd_run_open_spill(wpd_run *run, wpd_tiles *tiles, wpd_error *err);
+
+/* Where each rank read a block of the inputs into outbox (finished), a
+ * spill of every tile: tile by tile, every rank's points go to the tile's
+ * owner, which appends them to run->tiles in rank order (tile_share.c).
+ * Every rank calls it; agrees before each exchange. Returns 0, or -1 with
+ * err set. */
+int wpd_run_send_tiles(wpd_run *run, const wpd_tiles *outbox, wpd_error *err);
+
 /* Phases (each in its own file). */
 int wpd_tile_pass(wpd_run *run, wpd_error *err);                 /* tile.c */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err);             /* poisson_pass.c */

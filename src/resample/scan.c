@@ -132,14 +132,14 @@ static int count_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 /* Streams the cloud once on `threads` lanes into the counters: bounds and
  * points per file, and with scan != NULL the voxels and the density.
  * Returns 0, or -1 with err set (read error, or memory for the ladder). */
-static int count_cloud(wpd_cloud *cloud, const wpd_par *par, const wpd_scan *scan,
+static int count_cloud(wpd_cloud *cloud, const wpd_par *par, wpd_scan *scan,
                        counter *c, int threads, wpd_progress *pg, wpd_error *err)
 {
     count_job job = {scan, c, scan ? scan->unit_points : NULL};
     int ranks = wpd_par_ranks(par);
     wpd_pass pass = {.cloud = cloud, .threads = threads, .lane = count_lane, .arg = &job,
                      .progress = pg, .share = ranks > 1 ? wpd_par_rank(par) : 0,
-                     .shares = ranks > 1 ? ranks : 0};
+                     .shares = ranks > 1 ? ranks : 0, .dropped = scan ? &scan->dropped : NULL};
     return wpd_pass_run(&pass, err);
 }
 
@@ -314,6 +314,8 @@ static int scan_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, size_t v
         rc = combine_ranks(par, s, c, cells, err);
     if (rc == 0 && s->unit_points) /* each unit was counted by one rank */
         rc = wpd_par_sum_u64(par, s->unit_points, s->nunits, err);
+    if (rc == 0 && wpd_par_ranks(par) > 1)
+        rc = wpd_par_sum_u64(par, &s->dropped, 1, err);
     if (rc == 0 && finish_counts(s, c, cells))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the voxel scan");
     counters_free(c, threads);

@@ -34,6 +34,7 @@ typedef struct wpd_scan {
     uint64_t count;                   /* finite points */
     int nfiles;
     uint64_t *file_count;             /* [nfiles] finite points per file */
+    uint64_t dropped;                 /* points with non-finite coordinates */
     uint64_t nunits;                  /* with several ranks, over a cloud that can seek: */
     uint64_t *unit_points;            /* [nunits] finite points per unit of a pass
                                          (wpd_pass_units); else 0, NULL */

@@ -1,6 +1,13 @@
 /* tile.c - the tile pass: every point to its home tile and, within the
  * halo, to its neighbours (routing), on every thread, appended in reading
- * order (an ordered pass, pass.h). */
+ * order (an ordered pass, pass.h).
+ *
+ * The ranks of an MPI run that share the tiles (docs/scale-out.md): where
+ * the scan counted the points of each reading unit, each rank reads one
+ * block of units (about N / K points, in order), spills its points for
+ * every tile into an outbox, and the outboxes go tile by tile to the
+ * tiles' owners (tile_share.c); elsewhere (inputs that cannot seek) each
+ * rank reads everything and keeps its own tiles' points. */
 #include "resample/run.h"
 
 #include <stdlib.h>
@@ -78,11 +85,17 @@ static int route_point(routing *r, uint32_t tile, uint32_t point, uint8_t halo)
     return 0;
 }
 
+/* Whether each rank reads a block of the inputs (above). */
+static int reads_block(const wpd_run *e)
+{
+    return wpd_run_spills_own_tiles(e) && e->res->unit_points;
+}
+
 /* Whether this process keeps tile t's points: all of them, but where the
- * ranks of an MPI run spill their own tiles, only those. */
+ * ranks of an MPI run each read everything, only its own tiles'. */
 static int kept_here(const wpd_run *e, int t)
 {
-    return !wpd_run_spills_own_tiles(e) || wpd_run_owns(e, t);
+    return !wpd_run_spills_own_tiles(e) || reads_block(e) || wpd_run_owns(e, t);
 }
 
 /* Destinations of every point of the batch (frame coordinates in fxyz). */
@@ -125,13 +138,12 @@ static void group_by_tile(routing *r, int ntiles, const double *fxyz, uint64_t f
     }
 }
 
-/* Appends the grouped entries to their tiles' spill. */
-static int append_groups(wpd_run *e, const routing *r, wpd_error *err)
+/* Appends the grouped entries to their tiles in dest. */
+static int append_groups(const wpd_run *e, wpd_tiles *dest, const routing *r, wpd_error *err)
 {
     for (int t = 0; t < e->plan.ntiles; t++) {
         size_t b = r->start[t], m = r->start[t + 1] - b;
-        if (m && wpd_tiles_append(&e->tiles, t, r->gid + b, r->xyz + 3 * b, r->hflag + b, m,
-                                  err))
+        if (m && wpd_tiles_append(dest, t, r->gid + b, r->xyz + 3 * b, r->hflag + b, m, err))
             return -1;
     }
     return 0;
@@ -151,6 +163,9 @@ typedef struct tiler_lane {
 typedef struct tiler {
     wpd_run *e;
     tiler_lane *lanes;        /* [lanes] */
+    wpd_tiles *dest;          /* the run's tiles, or a rank's outbox */
+    uint64_t end_gid;         /* a rank's block ends before this global index */
+    int stalled;              /* the test hook's stall was passed (commits only) */
 } tiler;
 
 static int lane_init(tiler_lane *l, const wpd_run *e)
@@ -192,13 +207,73 @@ static int tile_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
 {
     tiler *tl = arg;
     routing *r = &tl->lanes[pb->lane].r;
+    if (pb->first_gid >= tl->end_gid) /* the next rank's block */
+        return 1;
     for (size_t k = 0; k < r->n; k++)
         r->gid[k] += pb->first_gid;
-    if (append_groups(tl->e, r, err))
+    if (append_groups(tl->e, tl->dest, r, err))
         return -1;
-    if (pb->first_gid == 0) /* once, when the first points are in (not per batch) */
+    if (!tl->stalled) { /* once, when the first points are in (not per batch) */
+        tl->stalled = 1;
         wpd_test_stall("tile");
+    }
     return 0;
+}
+
+/* This rank's block: the units from *first_unit (whose first point has
+ * global index *first_gid) up to global index *end_gid, about N / K
+ * points; the blocks of the ranks follow each other. */
+static void block_of(const wpd_run *e, uint64_t *first_unit, uint64_t *first_gid,
+                     uint64_t *end_gid)
+{
+    const wpd_resample_result *res = e->res;
+    uint64_t n = e->scan.count, ranks = (uint64_t)wpd_par_ranks(e->opt->par);
+    uint64_t r = (uint64_t)wpd_par_rank(e->opt->par);
+    uint64_t lo = (uint64_t)((unsigned __int128)n * r / ranks);
+    uint64_t hi = (uint64_t)((unsigned __int128)n * (r + 1) / ranks);
+    *first_unit = res->nunits, *first_gid = *end_gid = n;
+    uint64_t at = 0;
+    for (uint64_t u = 0; u < res->nunits; u++) {
+        if (at >= lo && *first_unit == res->nunits)
+            *first_unit = u, *first_gid = at;
+        if (at >= hi && r + 1 < ranks) {
+            *end_gid = at;
+            break;
+        }
+        at += res->unit_points[u];
+    }
+}
+
+/* The ordered pass over the inputs (a rank's block where it reads one)
+ * into tl->dest. */
+static int read_into(tiler *tl, int lanes, wpd_error *err)
+{
+    wpd_run *e = tl->e;
+    wpd_pass pass = {.cloud = e->cloud, .threads = lanes, .lane = tile_lane,
+                     .commit = tile_commit, .arg = tl, .progress = e->opt->progress};
+    tl->end_gid = UINT64_MAX;
+    if (reads_block(e)) {
+        block_of(e, &pass.first_unit, &pass.first_gid, &tl->end_gid);
+        if (pass.first_gid >= tl->end_gid) /* an empty block */
+            return 0;
+    }
+    return wpd_pass_run(&pass, err);
+}
+
+/* A rank's block into an outbox of every tile, then to the owners. */
+static int read_block(tiler *tl, int lanes, wpd_error *err)
+{
+    wpd_tiles outbox = {0};
+    if (wpd_run_open_spill(tl->e, &outbox, err))
+        return -1;
+    tl->dest = &outbox;
+    int rc = read_into(tl, lanes, err) || wpd_tiles_finish(&outbox, err) ? -1 : 0;
+    /* A rank that failed goes to the closing agreement, where the others'
+     * next agreement meets it (par.h). */
+    if (rc == 0)
+        rc = wpd_run_send_tiles(tl->e, &outbox, err);
+    wpd_tiles_close(&outbox);
+    return rc;
 }
 
 int wpd_tile_pass(wpd_run *e, wpd_error *err)
@@ -209,17 +284,14 @@ int wpd_tile_pass(wpd_run *e, wpd_error *err)
                         wpd_pass_lane_bytes(e->cloud);
     int lanes = wpd_budget_pass_threads(e->opt->mem_bytes, e->threads, WPD_BUDGET_SPILL_BUFFERS,
                                         lane_bytes);
-    tiler tl = {e, calloc((size_t)lanes, sizeof(tiler_lane))};
+    tiler tl = {e, calloc((size_t)lanes, sizeof(tiler_lane)), &e->tiles, UINT64_MAX, 0};
     int rc = tl.lanes ? 0 : -1;
     for (int l = 0; rc == 0 && l < lanes; l++)
         rc = lane_init(&tl.lanes[l], e);
-    if (rc) {
+    if (rc)
         wpd_fail(err, WPD_E_MEMORY, "out of memory for tiling");
-    } else {
-        wpd_pass pass = {.cloud = e->cloud, .threads = lanes, .lane = tile_lane,
-                         .commit = tile_commit, .arg = &tl, .progress = e->opt->progress};
-        rc = wpd_pass_run(&pass, err);
-    }
+    else
+        rc = reads_block(e) ? read_block(&tl, lanes, err) : read_into(&tl, lanes, err);
     for (int l = 0; tl.lanes && l < lanes; l++)
         lane_free(&tl.lanes[l]);
     free(tl.lanes);

@@ -160,12 +160,16 @@ def test_every_rank_writes_its_share_of_one_output():
     cases = [("in.las", "las", ()), ("in.las", "laz", ("--min-tiles", 4)),
              ("in.las", "ply", ("--ascii",)), ("nan.ply", "ply", ("--min-tiles", 3))]
     for src, ext, opts in cases:
-        wpd("resample", src, "-o", "plain." + ext, "-n", 130000, "-q", "--force", *opts)
+        wpd("resample", src, "-o", "plain." + ext, "-n", 130000, "-q", "--force",
+            "--report", "plain.json", *opts)
         for ranks in (2, 3):
             mpirun(ranks, "resample", src, "-o", "mpi." + ext, "-n", 130000, "-q", "--force",
                    "--tmpdir", "spill", "--report", "r.json", *opts)
             assert filecmp.cmp("plain." + ext, "mpi." + ext, shallow=False), (src, ext, ranks)
             assert report_writers("r.json") == ranks, (src, ext, ranks)
+            # No rank reads every point: the dropped ones are the ranks' sum.
+            with open("plain.json") as f, open("r.json") as g:
+                assert json.load(f)["dropped_non_finite"] == json.load(g)["dropped_non_finite"]
             assert os.listdir("spill") == [], os.listdir("spill")
     # Where the records cannot be read from a share (--metrics keeps every
     # output point on rank 0), rank 0 writes alone: the same bytes.
