@@ -62,6 +62,22 @@ int wpd_tiles_read(const wpd_tiles *t, int tile, wpd_tile_data *d, wpd_error *er
     return 0;
 }
 
+int wpd_tiles_chunks(const wpd_tiles *t, int tile, uint8_t **out, size_t *len,
+                     wpd_error *err)
+{
+    if (!t->spill)
+        return wpd_fail(err, WPD_E_USAGE, "internal error: chunks of a tile in memory");
+    return wpd_spill_tile_chunks(t->spill, tile, out, len, err);
+}
+
+int wpd_tiles_add_chunks(wpd_tiles *t, int tile, const uint8_t *p, size_t len,
+                         wpd_error *err)
+{
+    if (!t->spill)
+        return wpd_fail(err, WPD_E_USAGE, "internal error: chunks into a tile in memory");
+    return wpd_spill_add_chunks(t->spill, tile, p, len, err);
+}
+
 void wpd_tiles_release(const wpd_tiles *t, wpd_tile_data *d)
 {
     if (t->spill)

@@ -37,6 +37,14 @@ int wpd_tiles_finish(wpd_tiles *t, wpd_error *err);
 int wpd_tiles_read(const wpd_tiles *t, int tile, wpd_tile_data *d, wpd_error *err);
 void wpd_tiles_release(const wpd_tiles *t, wpd_tile_data *d);
 
+/* A spilled tile's compressed chunks out of one tiles' spill (finished)
+ * and into another's (wpd_spill_tile_chunks, wpd_spill_add_chunks). Return
+ * 0 or -1 (err set; WPD_E_USAGE for tiles in memory). */
+int wpd_tiles_chunks(const wpd_tiles *t, int tile, uint8_t **out, size_t *len,
+                     wpd_error *err);
+int wpd_tiles_add_chunks(wpd_tiles *t, int tile, const uint8_t *p, size_t len,
+                         wpd_error *err);
+
 /* Spill statistics (zeros in memory). */
 void wpd_tiles_stats(const wpd_tiles *t, wpd_spill_stats *st);
 

@@ -83,6 +83,19 @@ int wpd_spill_read(const wpd_spill *s, int t, int with_records, wpd_tile_data *o
 
 void wpd_tile_data_free(wpd_tile_data *d);
 
+/* Tile t's compressed chunks, as written, in order (after
+ * wpd_spill_finish): *out (malloc'd, *len bytes), for wpd_spill_add_chunks
+ * into another spill. Returns 0 or -1 (err set). */
+int wpd_spill_tile_chunks(const wpd_spill *s, int t, uint8_t **out, size_t *len,
+                          wpd_error *err);
+
+/* Appends chunks (wpd_spill_tile_chunks of a spill with the same record
+ * size and a chunk no larger than s's) to tile t, after its points so far;
+ * t must hold no points still buffered (add chunks to tiles that get no
+ * wpd_spill_append, or before it). Not thread-safe with appends to t.
+ * Returns 0 or -1 (err set: bytes that are no chunk, I/O errors). */
+int wpd_spill_add_chunks(wpd_spill *s, int t, const uint8_t *p, size_t len, wpd_error *err);
+
 /* Points appended to tile t so far. */
 uint64_t wpd_spill_count(const wpd_spill *s, int t);
 
