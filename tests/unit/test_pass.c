@@ -241,3 +241,87 @@ TEST(cloud_stretch_reads_stop_at_the_stretch_and_keep_counts)
     wpd_batch_free(&b);
     wpd_cloud_close(c);
 }
+
+/* ---- passes from a unit (the ranks' shares of the tile and records
+ * passes) ---- */
+
+typedef struct unit_count {
+    uint64_t *points;         /* [units] */
+    uint64_t units;
+    int bad;                  /* a batch without its unit */
+} unit_count;
+
+static int count_units(void *arg, wpd_pass_batch *pb, wpd_error *err)
+{
+    (void)err;
+    unit_count *u = arg;
+    if (pb->unit >= u->units)
+        u->bad = 1;
+    else
+        __atomic_add_fetch(&u->points[pb->unit], pb->batch->n, __ATOMIC_RELAXED);
+    return 0;
+}
+
+typedef struct from_unit {
+    seen s;
+    uint64_t stop_gid;        /* the commit that reaches it asks for no more */
+    int after_stop;           /* commits after that one */
+    int stopped;
+} from_unit;
+
+static int commit_until(void *arg, wpd_pass_batch *pb, wpd_error *err)
+{
+    from_unit *f = arg;
+    if (f->stopped) {
+        f->after_stop++;
+        return 0;
+    }
+    on_commit(&f->s, pb, err);
+    if (f->s.next_gid < f->stop_gid)
+        return 0;
+    f->stopped = 1;
+    return 1;
+}
+
+TEST(pass_from_a_unit_gives_its_global_indices_and_stops)
+{
+    uint64_t finite;
+    uint64_t *record = finite_records(250000, &finite);
+    wpd_error err = {0};
+    wpd_cloud *c = open_test_cloud(0, &err);
+    CHECK_MSG(c != NULL, "%s", err.msg);
+    unit_count u = {0};
+    CHECK(c && wpd_pass_units(c, &u.units, &err) == 0 && u.units > 4);
+    u.points = calloc(u.units ? u.units : 1, sizeof *u.points);
+    uint64_t dropped = 0;
+    wpd_pass count = {.cloud = c, .threads = 2, .lane = count_units, .arg = &u,
+                      .dropped = &dropped};
+    CHECK(u.points && wpd_pass_run(&count, &err) == 0 && !u.bad);
+    CHECK(dropped == 250000 - finite);
+    uint64_t sum = 0;
+    for (uint64_t k = 0; k < u.units; k++)
+        sum += u.points[k];
+    CHECK(sum == finite);
+    /* From the second unit, the one after the file boundary, and the last:
+     * the global indices of a whole pass, and no commit after the one
+     * that says enough. */
+    uint64_t starts[3] = {1, u.units / 2, u.units - 1};
+    for (int k = 0; k < 3 && sum == finite; k++) {
+        uint64_t first_gid = 0;
+        for (uint64_t j = 0; j < starts[k]; j++)
+            first_gid += u.points[j];
+        for (int threads = 1; threads <= 3; threads += 2) {
+            from_unit f = {{record, finite, first_gid, 0, {0}}, first_gid + 70000, 0, 0};
+            wpd_pass p = {.cloud = c, .threads = threads, .commit = commit_until, .arg = &f,
+                          .first_unit = starts[k], .first_gid = first_gid};
+            CHECK_MSG(wpd_cloud_rewind(c, &err) == 0 && wpd_pass_run(&p, &err) == 0, "%s",
+                      err.msg);
+            CHECK_MSG(!f.s.bad && f.after_stop == 0, "unit %llu threads %d",
+                      (unsigned long long)starts[k], threads);
+            CHECK(f.s.next_gid >= (f.stop_gid < finite ? f.stop_gid : finite));
+        }
+    }
+    free(u.points);
+    wpd_cloud_close(c);
+    free(record);
+}
