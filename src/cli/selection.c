@@ -83,23 +83,33 @@ static const wpd_header *input_of(const writing *ws, int k)
     return wpd_cloud_header(ws->cloud, ws->target->path ? 0 : k);
 }
 
-/* Opens output ws->done. */
-static int open_output(writing *ws, wpd_error *err)
+/* Opens the writer of output k (path: its name, which chooses the
+ * format), or with part a part writer of it into that file (io/writer.h). */
+static int open_writer(writing *ws, int k, const char *path, const char *part,
+                       wpd_error *err)
 {
-    int k = ws->done;
-    char buf[2048];
-    const char *path = ws->target->path;
-    if (!path)
-        path = wpd_per_input_path(ws->target->outdir, input_of(ws, k)->path, buf, sizeof buf);
     if (plan_output(ws->sel, &ws->box[k], input_of(ws, k), path, &ws->out, &ws->map,
                     &ws->label, err))
         return -1;
-    if (!(ws->w = wpd_writer_open(path, &ws->out, ws->target->opt, err))) {
+    ws->w = part ? wpd_writer_open_part(part, &ws->out, ws->target->opt, err)
+                 : wpd_writer_open(path, &ws->out, ws->target->opt, err);
+    if (!ws->w) {
         wpd_header_free(&ws->out);
         return -1;
     }
     ws->open = 1;
     return 0;
+}
+
+/* Opens output ws->done. */
+static int open_output(writing *ws, wpd_error *err)
+{
+    char buf[2048];
+    const char *path = ws->target->path;
+    if (!path)
+        path = wpd_per_input_path(ws->target->outdir, input_of(ws, ws->done)->path, buf,
+                                  sizeof buf);
+    return open_writer(ws, ws->done, path, NULL, err);
 }
 
 /* Finishes the open output under its temporary name (pending[done]). */
@@ -238,15 +248,7 @@ static int open_part(writing *ws, wpd_error *err)
     const char *path = ws->target->path, *dot = strrchr(path, '.');
     char part[1100];
     snprintf(part, sizeof part, "%s/wpd-part%s", ws->target->tmpdir, dot ? dot : "");
-    if (plan_output(ws->sel, &ws->box[0], input_of(ws, 0), path, &ws->out, &ws->map,
-                    &ws->label, err))
-        return -1;
-    if (!(ws->w = wpd_writer_open_part(part, &ws->out, ws->target->opt, err))) {
-        wpd_header_free(&ws->out);
-        return -1;
-    }
-    ws->open = 1;
-    return 0;
+    return open_writer(ws, 0, path, part, err);
 }
 
 /* A part's facts (rank 0's with the output's temporary name and where its

@@ -16,6 +16,9 @@ char *cf_tmp_path(char *out, size_t size, const char *name);
 /* Writes len bytes to path. Returns 0 or -1. */
 int cf_write_file(const char *path, const void *data, size_t len);
 
+/* The whole file at path: malloc'd, *len bytes; NULL when it cannot be read. */
+uint8_t *cf_read_file(const char *path, size_t *len);
+
 /* All points of a file: concatenated records and decoded x, y, z. */
 typedef struct cf_cloud {
     size_t n;

@@ -15,24 +15,6 @@
 
 /* ------------------------------------------------------------ helpers */
 
-static uint8_t *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = malloc(n > 0 ? (size_t)n : 1);
-    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return b;
-}
-
 /* Every point of path (batch_cap per read), or an error. */
 static int read_file(const char *path, cf_cloud *c, size_t batch_cap, wpd_error *err)
 {
@@ -334,7 +316,7 @@ TEST(laz_damaged_files)
     snprintf(laz, sizeof laz, "%.900s/laz/lastools_house.laz", data);
     snprintf(las, sizeof las, "%.900s/laz/lastools_house.las", data);
     size_t len;
-    uint8_t *b = slurp(laz, &len), *m = malloc(len);
+    uint8_t *b = cf_read_file(laz, &len), *m = malloc(len);
     cf_cloud twin;
     wpd_error err = {0};
     if (!b || !m || read_file(las, &twin, 4096, &err)) {
@@ -417,7 +399,7 @@ static int load_laz(int *failures_, const char *name, uint8_t **b, uint8_t **m, 
         return 0;
     char laz[1024];
     snprintf(laz, sizeof laz, "%.900s/laz/%s", data, name);
-    *b = slurp(laz, len);
+    *b = cf_read_file(laz, len);
     *m = *b ? malloc(*len) : NULL;
     *v = *b ? laszip_payload(*b, *len) : 0;
     if (!*b || !*m || !*v) {
@@ -504,7 +486,7 @@ TEST(laz_random_damage)
         char laz[1024];
         snprintf(laz, sizeof laz, "%.900s/laz/%s", data, files[f]);
         size_t len;
-        uint8_t *b = slurp(laz, &len), *m = malloc(len);
+        uint8_t *b = cf_read_file(laz, &len), *m = malloc(len);
         if (!b || !m) {
             CHECK_MSG(0, "cannot load %s", laz);
             free(b), free(m);

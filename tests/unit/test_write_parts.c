@@ -16,25 +16,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The whole file at path into *len bytes (malloc'd), or NULL. */
-static uint8_t *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *b = malloc(n > 0 ? (size_t)n : 1);
-    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return b;
-}
-
 /* Points [lo, hi) of p through w. */
 static int write_range(wpd_writer *w, const cf_cloud *p, size_t lo, size_t hi, wpd_error *err)
 {
@@ -88,7 +69,7 @@ static int parts_equal_one(int *failures_, const char *name, const wpd_header *h
         wpd_writer_abort(parts[k]);
     CHECK_MSG(rc == 0, "%s in parts: %s", name, err.msg);
     size_t la = 0, lb = 0;
-    uint8_t *a = slurp(one, &la), *b = slurp(joined, &lb);
+    uint8_t *a = cf_read_file(one, &la), *b = cf_read_file(joined, &lb);
     int same = a && b && la == lb && !memcmp(a, b, la);
     CHECK_MSG(same, "%s: %zu bytes in parts, %zu from one writer", name, lb, la);
     free(a);
