@@ -22,7 +22,7 @@ TEST_OBJ := $(TEST_SRC:%.c=build/%.o)
 DEB_PKGS := gcc make libzstd-dev libpng-dev libc6-dev python3 python3-numpy bc \
             openmpi-bin libopenmpi-dev
 
-.PHONY: all test demo bench install clean deps
+.PHONY: all test demo bench install clean deps lazperf
 
 all: wpd
 
@@ -79,10 +79,21 @@ deps:
 	  else echo "deps: missing$$missing (run 'make deps' as root)"; exit 1; fi; \
 	fi
 
-test: deps
+test: deps lazperf
 	$(MAKE) wpd build/unit_tests
 	if command -v $(MPICC) >/dev/null; then $(MAKE) wpd-mpi; fi
 	tests/run.sh
+
+# laz-perf 0.0.7 (npm), the independent LAZ decoder the tests cross-check our
+# LAZ output with (../shared/tools/laz2las.js), in build/npm. Best effort:
+# without npm or the registry the tests say SKIP for those checks.
+LAZPERF_DIR := build/npm
+lazperf:
+	@if [ -d $(LAZPERF_DIR)/node_modules/laz-perf ]; then :; \
+	elif command -v npm >/dev/null; then \
+	  mkdir -p $(LAZPERF_DIR) && npm install -s --no-audit --no-fund --prefix $(LAZPERF_DIR) laz-perf@0.0.7 >/dev/null || \
+	  echo "lazperf: npm could not install laz-perf; the laz2las.js checks will SKIP"; \
+	else echo "lazperf: no npm; the laz2las.js checks will SKIP"; fi
 
 demo: deps
 	$(MAKE) wpd

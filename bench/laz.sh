@@ -7,10 +7,12 @@
 # configuration, interleaved; the medians are printed, and the median of
 # the rounds' 2-thread / 1-thread ratios.
 # laz-perf is measured when LAZPERF_NODE_PATH names a node_modules folder
-# holding laz-perf 0.0.7 (see ../shared/tools/laz2las.js for the setup).
+# holding laz-perf 0.0.7 (default build/npm/node_modules, where `make
+# lazperf` installs it; see ../shared/tools/laz2las.js).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-make -s wpd build/laz_bench
+make -s wpd build/laz_bench lazperf
+[ -d build/npm/node_modules/laz-perf ] && : "${LAZPERF_NODE_PATH:=build/npm/node_modules}"
 median() { sort -g | awk '{a[NR]=$1} END {print (NR%2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 rate() { sed 's/.* \([0-9.]*\) M points\/s$/\1/'; }
 files=(lastools_fusa pdal_autzen_trim pdal_ellipsoid_copc-draft copcvalidator_ellipsoid-1.4)

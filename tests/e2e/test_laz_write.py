@@ -7,8 +7,9 @@ compressor, 6-8 the layered one (PLY inputs, laid out as 6-8, included);
 4, 5, 9 and 10 (waveform) are refused in one line and leave no file.
 
 laz2las.js needs node and laz-perf 0.0.7: LAZPERF_NODE_PATH names the
-node_modules folder holding it (default ../npm/node_modules beside the
-repository); without node or laz-perf those checks SKIP, saying so."""
+node_modules folder holding it (default build/npm/node_modules, where
+`make test` installs it, or ../npm/node_modules beside the repository);
+without node or laz-perf those checks SKIP, saying so."""
 import os
 import re
 import shutil
@@ -19,8 +20,11 @@ from harness import DATA, REPO, Skip, data, manifest, wpd
 from test_laz import records
 
 LAZ2LAS = os.path.join(DATA, "..", "tools", "laz2las.js")
-NODE_PATH = os.environ.get("LAZPERF_NODE_PATH",
-                           os.path.join(REPO, "..", "npm", "node_modules"))
+NODE_PATH = os.environ.get("LAZPERF_NODE_PATH") or next(
+    (p for p in (os.path.join(REPO, "build", "npm", "node_modules"),
+                 os.path.join(REPO, "..", "npm", "node_modules"))
+     if os.path.isdir(os.path.join(p, "laz-perf"))),
+    os.path.join(REPO, "build", "npm", "node_modules"))
 
 
 def laz2las(laz, las):
