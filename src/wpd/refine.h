@@ -8,6 +8,15 @@
  * at a larger radius would open holes). A pass that keeps fewer shrinks r
  * as paper eq. 5 does:
  *   count < n    r' = r (1 - R / theta1),  R = 1 - count / n,  theta1 = 1.8
+ * From the second pass below n on, the step is the larger of eq. 5's and a
+ * secant's: the radius where the count, growing with 1/r as it did
+ * between the last two passes below n (count ~ r^-s), reaches 1.02 n, at
+ * most a halving of r. Eq. 5 moves r by a share of the shortfall, and
+ * where the count hardly grows as r shrinks (n near the input's size:
+ * below the points' spacing a pass keeps nearly all of them whatever r)
+ * it took up to 40 passes (docs/algorithm.md section 2); one eq. 5 step
+ * after the first pass below n is kept, so runs that land at n in that
+ * step are as before.
  * Only a first pass that overshoots far is redone, at a larger radius:
  *   count > 1.15 n (first pass)   r' = r (count / 1.06 n)^(1/2.5), at most 1.25 r0
  * An elimination sweep costs about what a Poisson pass costs and deletes a
@@ -44,6 +53,7 @@ typedef enum wpd_refine_status {
 #define WPD_REFINE_OVERSHOOT 1.15 /* a first pass above this x n is redone */
 #define WPD_REFINE_AIM 1.06       /* ... at the radius that should keep this x n */
 #define WPD_REFINE_GROW_MAX 1.25  /* ... at most this x r0 */
+#define WPD_REFINE_SECANT_AIM 1.02 /* a secant step aims at this x n */
 
 typedef struct wpd_refine {
     size_t target;        /* n */
@@ -51,6 +61,8 @@ typedef struct wpd_refine {
     double r;             /* radius for the next pass */
     int passes;           /* passes reported */
     int max_passes;
+    double below_r;       /* the last pass below n: its radius (0: none yet) */
+    size_t below_count;   /* ... and its count */
 } wpd_refine;
 
 /* Starts a loop for target n (>= 1) at radius r0 (> 0). */

@@ -121,3 +121,18 @@ def test_usage_errors_and_copy():
     p = wpd("resample", src, "-o", "out.las", "-n", 5000)
     assert "copying the input" in p.stderr
     assert read_las("out.las")["points"] == read_las(src)["points"]
+
+
+def test_n_near_the_input_size_lands_in_few_passes():
+    """92 % of lone-star tile 4: below its points' spacing a pass keeps nearly
+    every point whatever r, so paper eq. 5's steps (a share of the
+    shortfall) crawled - 28 passes - and a pass limit could stop them short
+    of n; the secant step (refine.h) lands at n in a few passes, exactly n."""
+    src = data("scans", "lone-star_tile4.las")
+    wpd("resample", src, "-o", "out.las", "-n", 100000, "--no-smooth", "-q", "--report",
+        "r.json")
+    with open("r.json") as f:
+        r = json.load(f)
+    assert r["output_points"] == 100000 and count_points("out.las") == 100000, r["output_points"]
+    assert r["first_pass_points"] < 100000, r["first_pass_points"]  # the case it is about
+    assert r["poisson_passes"] <= 5, r["poisson_passes"]

@@ -230,6 +230,35 @@ TEST(wpd_refine_follows_eq_5_until_a_pass_keeps_n)
     CHECK(wpd_refine_report(&st, 5) == WPD_REFINE_GAVE_UP);
 }
 
+/* From the second pass below n on, the larger of eq. 5's step and the
+ * secant's (count ~ r^-s through the last two passes below n, aiming at
+ * 1.02 n), at most a halving of r. */
+TEST(wpd_refine_takes_secant_steps_where_eq_5_crawls)
+{
+    wpd_refine st;
+    wpd_refine_init(&st, 1000, 1.0, 40);
+    CHECK(wpd_refine_report(&st, 800) == WPD_REFINE_AGAIN); /* the first below n: eq. 5 */
+    double r1 = 1 - 0.2 / 1.8;
+    CHECK(fabs(st.r - r1) < 1e-12);
+    /* The count hardly grew (saturated): the secant asks for far less, r halves. */
+    CHECK(wpd_refine_report(&st, 810) == WPD_REFINE_AGAIN);
+    CHECK_MSG(fabs(st.r - 0.5 * r1) < 1e-12, "r %g", st.r);
+    /* A count that grows steeply: the secant lands at 1.02 n, beyond eq. 5. */
+    wpd_refine_init(&st, 1000, 1.0, 40);
+    CHECK(wpd_refine_report(&st, 500) == WPD_REFINE_AGAIN);
+    r1 = 1 - 0.5 / 1.8;
+    CHECK(wpd_refine_report(&st, 900) == WPD_REFINE_AGAIN);
+    double slope = log(900.0 / 500.0) / log(1.0 / r1), want = r1 * pow(900.0 / 1020.0, 1 / slope);
+    CHECK(want < r1 * (1 - 0.1 / 1.8));
+    CHECK_MSG(fabs(st.r - want) < 1e-12, "r %g, want %g", st.r, want);
+    CHECK(wpd_refine_report(&st, 1010) == WPD_REFINE_DONE);
+    /* A count that fell (it cannot, but a corrupt sum must not divide by zero): halve. */
+    wpd_refine_init(&st, 1000, 1.0, 40);
+    wpd_refine_report(&st, 800);
+    CHECK(wpd_refine_report(&st, 700) == WPD_REFINE_AGAIN);
+    CHECK(fabs(st.r - 0.5 * (1 - 0.2 / 1.8)) < 1e-12);
+}
+
 /* A first pass far above n is redone at the area-scaled radius, capped at
  * 1.25 r0 (the halo's margin); later passes above n, or a first pass a
  * little above it, are final. */
