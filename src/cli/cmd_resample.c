@@ -673,6 +673,12 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (rc == 0 && info.dropped && !o->quiet)
         fprintf(stderr, "wpd resample: warning: %llu points with non-finite coordinates "
                 "dropped\n", (unsigned long long)info.dropped);
+    /* Passes stopped at their limit below n: repeated points are one sample at any radius. */
+    if (rc == 0 && !classes.ngroups && res.count < target && target < res.input_points &&
+        !o->quiet)
+        fprintf(stderr, "wpd resample: warning: %zu points written, not the %llu asked for: "
+                "%d Poisson passes down to radius %g kept no more (repeated points?)\n",
+                res.count, (unsigned long long)target, res.passes, res.radius);
     double tw = omp_get_wtime();
     /* The records pass reads every input point: progress in those. */
     wpd_progress_phase(&o->progress, "write", res.input_points, "points");

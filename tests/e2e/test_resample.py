@@ -136,3 +136,21 @@ def test_n_near_the_input_size_lands_in_few_passes():
     assert r["output_points"] == 100000 and count_points("out.las") == 100000, r["output_points"]
     assert r["first_pass_points"] < 100000, r["first_pass_points"]  # the case it is about
     assert r["poisson_passes"] <= 5, r["poisson_passes"]
+
+
+def test_fewer_points_than_asked_are_said():
+    """1000 places, each point three times: no radius keeps more than 1000
+    samples, so -n 2000 of the 3000 points cannot be met; the passes stop at
+    their limit and the run says so instead of writing fewer points without
+    a word."""
+    with open("dup.ply", "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex 3000\nproperty double x\n"
+                "property double y\nproperty double z\nend_header\n")
+        pts = [((i * 0.618034) % 1, (i * 0.414214) % 1, 0.001 * (i % 7)) for i in range(1000)]
+        for _ in range(3):
+            f.writelines("%r %r %r\n" % p for p in pts)
+    p = wpd("resample", "dup.ply", "-o", "out.ply", "-n", 2000)
+    assert "1000 points written, not the 2000 asked for" in p.stderr, p.stderr
+    assert count_points("out.ply") == 1000
+    q = wpd("resample", "dup.ply", "-o", "out.ply", "-n", 2000, "-q", "--force")
+    assert q.stderr == "", q.stderr
