@@ -722,12 +722,12 @@ static void sweep_leftovers(const resample_options *o)
     wpd_tmpdir_sweep_stale(base, "wpd-runs");
     wpd_tmpdir_sweep_stale(base, "wpd-blobs");
     wpd_tmpdir_sweep_stale(base, "wpd-cache");
-    /* The parts of an output that ranks of an MPI run write (selection.h). */
-    static const char *const parts[] = {"las", "laz", "ply"};
+    /* Parts of outputs that ranks of an MPI run write (selection.h), also
+     * this output's extension as written (".LAZ"). */
+    const char *const parts[] = {".las", ".laz", ".ply", o->output ? o->output : ""};
     for (size_t i = 0; i < sizeof parts / sizeof *parts; i++) {
         char part[1100];
-        snprintf(part, sizeof part, "%s/wpd-part.%s", base, parts[i]);
-        wpd_outfile_sweep_stale(part);
+        wpd_outfile_sweep_stale(wpd_part_path(base, parts[i], part, sizeof part));
     }
     if (o->output)
         wpd_outfile_sweep_stale(o->output);

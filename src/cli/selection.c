@@ -213,6 +213,13 @@ int wpd_selection_write(const wpd_selection *sel, wpd_cloud *cloud,
     return rc;
 }
 
+const char *wpd_part_path(const char *tmpdir, const char *output, char *buf, size_t size)
+{
+    const char *dot = strrchr(output, '.');
+    snprintf(buf, size, "%s/wpd-part%s", tmpdir, dot ? dot : "");
+    return buf;
+}
+
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size)
 {
     char base[1024];
@@ -245,10 +252,10 @@ static void share_of(uint64_t n, int ranks, int r, uint64_t *first, uint64_t *co
  * output's extension (which chooses LAS or LAZ). */
 static int open_part(writing *ws, wpd_error *err)
 {
-    const char *path = ws->target->path, *dot = strrchr(path, '.');
     char part[1100];
-    snprintf(part, sizeof part, "%s/wpd-part%s", ws->target->tmpdir, dot ? dot : "");
-    return open_writer(ws, 0, path, part, err);
+    return open_writer(ws, 0, ws->target->path,
+                       wpd_part_path(ws->target->tmpdir, ws->target->path, part, sizeof part),
+                       err);
 }
 
 /* A part's facts (rank 0's with the output's temporary name and where its

@@ -103,6 +103,12 @@ int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
                                const wpd_selection_target *target, wpd_outfile *pending,
                                wpd_error *err);
 
+/* The part file a rank after the first writes its share of output into
+ * (wpd_selection_write_shared): "<tmpdir>/wpd-part<output's extension>",
+ * the extension choosing the format; in buf. output may also be just an
+ * extension (".las": what a sweep of stale parts looks for). */
+const char *wpd_part_path(const char *tmpdir, const char *output, char *buf, size_t size);
+
 /* The --per-input output of input: "<outdir>/<input's file name>", in buf. */
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size);
 
