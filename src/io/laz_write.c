@@ -298,7 +298,8 @@ int wpd_laz_writer_add_chunks(wpd_laz_writer *z, const uint32_t *sizes, uint64_t
                         "chunk", z->path, z->in_chunk);
     if (n > SIZE_MAX / sizeof *sizes || room_for_chunks(z, (size_t)n))
         return fail_memory(z, err);
-    memcpy(z->sizes + z->nchunks, sizes, (size_t)n * sizeof *sizes);
+    if (n) /* an empty part has no table: memcpy's source must not be NULL */
+        memcpy(z->sizes + z->nchunks, sizes, (size_t)n * sizeof *sizes);
     z->nchunks += (size_t)n;
     z->chunk_bytes += bytes;
     return 0;
