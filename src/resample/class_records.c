@@ -125,7 +125,8 @@ static int picker_init(class_picker *p, wpd_cloud *cloud, const wpd_class_result
         resampled += r->groups[i].run.samples != NULL && !r->groups[i].whole;
         labelled |= r->groups[i].run.labelled;
     }
-    *p = (class_picker){cloud, r, calloc((size_t)r->ngroups, sizeof *p->group),
+    size_t ngroups = r->ngroups > 0 ? (size_t)r->ngroups : 1; /* (never negative) */
+    *p = (class_picker){cloud, r, calloc(ngroups, sizeof *p->group),
                         calloc(NCLASSES, sizeof *p->out_count),
                         malloc(PICK_POINTS * sizeof *p->gid),
                         malloc(3 * PICK_POINTS * sizeof *p->xyz),
