@@ -150,6 +150,30 @@ int wpd_radius_paper(const double *xyz, size_t n, size_t target, double lambda,
     return 0;
 }
 
+/* Where n asks for more r-voxels than the finest scales hold, those scales
+ * are saturated: below the input's spacing every voxel holds one point and m
+ * stays at the point count, so the log-log curve is flat there and a solution
+ * on it (or beyond the finest scale) lands far below the spacing, where a
+ * pass keeps nearly every point. The surface's area is still seen at the
+ * finest scale that is not saturated (m below 0.9 of the largest count):
+ * extrapolate from it as an area (m ~ l^-2) and never go below that. */
+static double saturation_floor(const double *lx, const double *ly, int k, double lw, double x)
+{
+    double lmax = ly[0];
+    for (int i = 1; i < k; i++)
+        lmax = fmax(lmax, ly[i]);
+    double sat = lmax + log(0.9);
+    /* j: the finest scale below saturation; the solution must need more
+     * voxels than it holds (it lies on the saturated side of it) */
+    int j = 0;
+    while (j < k && ly[j] >= sat)
+        j++;
+    if (j == 0 || j == k || !(lw >= ly[j]))
+        return x;
+    double xa = lx[j] + (ly[j] - lw) / 2;
+    return xa > x ? xa : x;
+}
+
 int wpd_radius_from_counts(const double *edge, const uint64_t *m, int nscales, size_t target,
                            double density, wpd_radius_info *out)
 {
@@ -196,6 +220,7 @@ int wpd_radius_from_counts(const double *edge, const uint64_t *m, int nscales, s
         if (!inside && seg == k - 2 && x < lx[k - 1])
             x = lx[k - 1];
     }
+    x = saturation_floor(lx, ly, k, lw, x);
     out->radius = exp(x);
     out->voxel_edge = out->radius;
     out->voxels = want;

@@ -640,6 +640,29 @@ TEST(wpd_radius_estimates_are_sane)
     free(xyz);
 }
 
+/* n asking for more r-voxels than the finest scales hold (the conference
+ * room's ladder, 20 000 points, to 10 000): those scales are saturated (one
+ * point a voxel, m = N), and solving on their flat curve put r at the
+ * finest scale, far below the points' spacing. The estimate extrapolates
+ * as an area from the finest unsaturated scale instead (0.0847: 14 522). */
+TEST(wpd_radius_never_solves_on_saturated_scales)
+{
+    const double edge[6] = {0.33873, 0.16936, 0.084682, 0.042341, 0.021171, 0.010585};
+    const uint64_t m[6] = {1029, 3894, 14522, 19996, 20000, 20000};
+    wpd_radius_info ri;
+    wpd_radius_from_counts(edge, m, 6, 10000, WPD_MULTISCALE_DENSITY, &ri);
+    double area_like = 0.084682 * sqrt(14522 * WPD_MULTISCALE_DENSITY / 10000);
+    CHECK_MSG(fabs(ri.radius / area_like - 1) < 1e-9, "radius %g, expected %g", ri.radius,
+              area_like);
+    /* Where the solution lies among unsaturated scales nothing changes:
+     * 6 000 points interpolate between 0.169 and 0.0847. */
+    wpd_radius_from_counts(edge, m, 6, 6000, WPD_MULTISCALE_DENSITY, &ri);
+    double want = 6000 / WPD_MULTISCALE_DENSITY;
+    double slope = log(14522.0 / 3894) / log(0.084682 / 0.16936);
+    double interp = 0.16936 * exp(log(want / 3894) / slope);
+    CHECK_MSG(fabs(ri.radius / interp - 1) < 1e-9, "radius %g, expected %g", ri.radius, interp);
+}
+
 TEST(wpd_sharp_detector_finds_a_crease)
 {
     /* Two half-planes meeting at a right angle along the y axis. */
