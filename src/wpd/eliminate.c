@@ -10,6 +10,10 @@
 #include "core/knn.h"
 #include "core/sort.h"
 
+/* Average samples an occupied cell of the elimination's grid holds at least
+ * (unless the cells would pass the reach). */
+#define ELIM_CELL_FILL 1.25
+
 /* *p = max(*p, v) for any number of threads. */
 static void atomic_max(uint64_t *p, uint64_t v)
 {
@@ -59,8 +63,21 @@ int wpd_eliminate_begin(wpd_eliminate *e, wpd_error *err)
     e->live = m;
     memset(e->cost, 0, e->n * sizeof *e->cost);
     /* Cells of 1.5 r: the second-nearest sample of an input point (about r
-     * away) then lies within the 3 x 3 x 3 cells around it. */
-    return wpd_grid_build(&e->grid, e->xyz, e->live_idx, m, 1.5 * e->spacing, e->threads, err);
+     * away) then lies within the 3 x 3 x 3 cells around it. Where the
+     * samples stand much farther apart than r (an input sparser than the
+     * radius: n near its size), cells of 1.5 r hold one sample each and a
+     * search crosses thousands of empty cells to its nearest: the cells
+     * grow until they hold about ELIM_CELL_FILL samples on average (the
+     * searches are exact whatever the cell, so only their cost changes). */
+    double cell = 1.5 * e->spacing;
+    for (;;) {
+        if (wpd_grid_build(&e->grid, e->xyz, e->live_idx, m, cell, e->threads, err))
+            return -1;
+        if ((double)e->grid.nruns * ELIM_CELL_FILL <= (double)m || e->grid.nruns <= 1 ||
+            2 * cell > e->reach)
+            return 0;
+        cell *= 2;
+    }
 }
 
 /* The grid's cell coordinates (in column order: axis[0], axis[1],
@@ -280,7 +297,7 @@ static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[
     uint32_t idx[2];
     double d2[2];
     double reach2 = e->reach * e->reach;
-    int got = two_nearest(&e->grid, near, have, c, p, 1.5 * e->spacing, idx, d2);
+    int got = two_nearest(&e->grid, near, have, c, p, e->grid.cell, idx, d2);
     if (got >= 1 && d2[0] <= reach2)
         atomic_max(&e->cost[idx[0]], wpd_double_bits(got == 2 && d2[1] < reach2 ? d2[1] : reach2));
 }
@@ -331,8 +348,7 @@ double wpd_eliminate_nearest(const wpd_eliminate *e, uint32_t s)
 {
     uint32_t idx[1];
     double d2[1];
-    int got = wpd_knn(&e->grid, e->xyz + 3 * (size_t)s, 1, s, e->reach, 1.5 * e->spacing, idx,
-                      d2);
+    int got = wpd_knn(&e->grid, e->xyz + 3 * (size_t)s, 1, s, e->reach, e->grid.cell, idx, d2);
     return got ? sqrt(d2[0]) : e->reach;
 }
 

@@ -146,6 +146,40 @@ TEST(eliminate_costs_are_the_holes_the_definition_gives)
     free(want), free(s), free(xyz), free(gid);
 }
 
+/* A radius far below the samples' spacing (n near the input's size, where
+ * the input is sparser than r): the grid's cells grow past 1.5 r (else a
+ * search crosses thousands of empty cells), and the costs and the nearest
+ * live samples are still exactly the definition's. */
+TEST(eliminate_is_exact_when_samples_stand_far_apart_for_r)
+{
+    uint64_t *gid;
+    size_t n = 4000, m;
+    double *xyz = sheet(n, 5, &gid);
+    double *s = poisson_samples(xyz, gid, n, 1.2, &m);
+    double r = 0.02, reach = 8;
+    wpd_eliminate e;
+    wpd_error err = {0};
+    CHECK(wpd_eliminate_init(&e, s, NULL, m, r, reach, 2, &err) == 0);
+    CHECK(wpd_eliminate_begin(&e, &err) == 0);
+    CHECK_MSG(e.grid.cell > 8 * 1.5 * r, "cell %g for r %g", e.grid.cell, r);
+    wpd_eliminate_add_points(&e, xyz, NULL, n, 2);
+    double *want = costs_by_brute_force(xyz, n, s, m);
+    size_t wrong = 0, wrong_nearest = 0;
+    for (size_t j = 0; j < m; j++) {
+        double got, best = INFINITY;
+        memcpy(&got, &e.cost[j], sizeof got);
+        wrong += got != fmin(want[j], reach * reach);
+        for (size_t k = 0; k < m; k++)
+            if (k != j)
+                best = fmin(best, dist2(s + 3 * j, s + 3 * k));
+        wrong_nearest += wpd_eliminate_nearest(&e, (uint32_t)j) != fmin(sqrt(best), reach);
+    }
+    CHECK_MSG(wrong == 0 && wrong_nearest == 0, "%zu costs and %zu nearest of %zu differ",
+              wrong, wrong_nearest, m);
+    wpd_eliminate_free(&e);
+    free(want), free(s), free(xyz), free(gid);
+}
+
 /* Samples on a lattice of step 1 at a large offset (exact ties everywhere,
  * coordinates whose float rounding is coarse), points at lattice nodes,
  * midpoints and cell centres (equidistant from 2, 4 or 8 samples) and at
