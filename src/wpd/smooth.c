@@ -368,13 +368,19 @@ static void round_to_output(const double res[3], const double p[3], double out[3
 
 /* A sample on no scanned surface at the sampling's scale - an isolated
  * return, a noise spike, a lone wire point - has input neighbours sparser
- * than the samples around its starting position (mean distance to the 6
- * nearest input points above r). Its tangent plane means nothing and its
- * Voronoi cell is as large as the gap around it: it keeps its starting
- * position. (The bound was half of r before the coverage guard kept such
- * a sample from opening a hole; at 10 % of the input the input spacing is
- * about 0.45 r on an even surface, and half of r kept 27-40 % of the
- * samples of lato270 and lone-star_tile1 still.) */
+ * than the samples around its starting position: the mean distance to its
+ * 6 nearest input points is above ISOLATED_SPACING r, about the mean
+ * distance from a Poisson sample at r to its 6 nearest samples (1.30-1.60 r
+ * measured on NC Raleigh, CSite1, lato270 and lone-star tile 3 at 10 K).
+ * Its tangent plane means nothing and its Voronoi cell is as large as the
+ * gap around it: it keeps its starting position. (The bound was r until
+ * 2026-11-27, which held every sample still where n is half the input, the
+ * input then being about as sparse as r; and half of r before the coverage
+ * guard kept such a sample from opening a hole: at 10 % of the input the
+ * input spacing is about 0.45 r on an even surface, and half of r kept
+ * 27-40 % of the samples of lato270 and lone-star_tile1 still.) */
+#define ISOLATED_SPACING 1.5
+
 static int off_surface(const wpd_grid *surface, const double start[3], double spacing)
 {
     /* A sample starts on an input point: its 7 nearest are that point and
@@ -384,7 +390,7 @@ static int off_surface(const wpd_grid *surface, const double start[3], double sp
     int got = wpd_knn_slots(surface, start, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
     for (int j = 1; j < got; j++)
         local += sqrt(d2[j]);
-    return got > 1 && local / (got - 1) > spacing;
+    return got > 1 && local / (got - 1) > ISOLATED_SPACING * spacing;
 }
 
 /* Keeps a moved sample p within the input's local spacing of the input,
