@@ -138,11 +138,16 @@ static void group_by_tile(routing *r, int ntiles, const double *fxyz, uint64_t f
     }
 }
 
-/* Appends the grouped entries to their tiles in dest. */
-static int append_groups(const wpd_run *e, wpd_tiles *dest, const routing *r, wpd_error *err)
+/* Appends the grouped entries of global index below end to their tiles in
+ * dest. A group holds its entries in reading order, so those at or past
+ * end are its tail. */
+static int append_groups(const wpd_run *e, wpd_tiles *dest, const routing *r, uint64_t end,
+                         wpd_error *err)
 {
     for (int t = 0; t < e->plan.ntiles; t++) {
         size_t b = r->start[t], m = r->start[t + 1] - b;
+        while (m && r->gid[b + m - 1] >= end)
+            m--;
         if (m && wpd_tiles_append(dest, t, r->gid + b, r->xyz + 3 * b, r->hflag + b, m, err))
             return -1;
     }
@@ -211,7 +216,9 @@ static int tile_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
         return 1;
     for (size_t k = 0; k < r->n; k++)
         r->gid[k] += pb->first_gid;
-    if (append_groups(tl->e, tl->dest, r, err))
+    /* A batch may run past the block's end (batches count finite points,
+     * units records): its points from end_gid on are the next rank's. */
+    if (append_groups(tl->e, tl->dest, r, tl->end_gid, err))
         return -1;
     if (!tl->stalled) { /* once, when the first points are in (not per batch) */
         tl->stalled = 1;

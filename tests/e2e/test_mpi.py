@@ -66,7 +66,7 @@ def test_rounds_across_ranks_give_the_plain_bytes():
     rounds with other ranks' decisions handed back, and the exact count's
     decisions take several rounds in a sweep, over several sweeps."""
     synth("in.las", 300000, 1)
-    for n, ranks in ((20000, 2), (60000, 3)):
+    for n, ranks in ((20000, 2), (40000, 3)):
         check_rounds(n, ranks)
 
 
@@ -77,7 +77,7 @@ def check_rounds(n, ranks):
     with open("plain.json") as f:
         plain = json.load(f)
     assert plain["resolution_rounds"] > 0, plain["resolution_rounds"]
-    if n == 60000:
+    if n == 40000:
         assert plain["exact_rounds"] > plain["exact_sweeps"] > 1, plain
     mpirun(ranks, "resample", "in.las", "-o", "mpi.las", "--report", "mpi.json", *opts)
     assert filecmp.cmp("plain.las", "mpi.las", shallow=False), (n, ranks)
