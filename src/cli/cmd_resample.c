@@ -27,66 +27,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static const char *usage_text =
-    "usage: wpd resample IN... -o OUT -n N [options]\n"
-    "Resamples the points of IN (several inputs are one cloud) to exactly N points\n"
-    "with even, isotropic spacing (Weighted Poisson-disk resampling), keeping every\n"
-    "attribute of each selected point; coordinates move by the tangent smoothing.\n"
-    "  -o, --output FILE     output (.las, .laz or .ply); must not exist unless --force\n"
-    "      --per-input DIR   instead of -o: one output per input file in DIR (same\n"
-    "                        name), holding the resampled points that fall in it;\n"
-    "                        the outputs appear together when all are complete\n"
-    "      --skip-existing   with --per-input: leave out inputs whose output is newer\n"
-    "                        than the input (outputs older than their input are\n"
-    "                        replaced); the rest are resampled as one cloud\n"
-    "  -n, --count N         points to keep: a number (k, M suffixes) or a\n"
-    "                        percentage of the input (\"10%\"); N >= input copies it\n"
-    "      --lambda L        area overlap factor of the radius estimate (0.68)\n"
-    "      --voxel-frac F    voxel edge / largest extent for the paper's estimate (0.05)\n"
-    "      --radius-estimate paper|multiscale   first radius (multiscale)\n"
-    "  -k N                  neighbours for normals and smoothing (13)\n"
-    "      --iterations N    smoothing iterations (5)\n"
-    "      --no-smooth       Poisson sample only: no point moves\n"
-    "      --sharp           detect sharp features (creases: points within half the\n"
-    "                        spacing of where two planar faces meet at 30 degrees or\n"
-    "                        more), sample them at r/2, keep them fixed\n"
-    "      --edge-label      with --sharp: write each output point's label (1 sharp,\n"
-    "                        0 not) as the field \"edge\" (LAS: an extra byte with\n"
-    "                        its Extra Bytes VLR; PLY: uchar); an input field of that\n"
-    "                        name is replaced\n"
-    "      --drop-class LIST remove the points of these classes first (LIST: numbers\n"
-    "                        and ranges, e.g. 7,18 or 2,6,9-12)\n"
-    "      --keep-class LIST copy the points of these classes untouched (not moved,\n"
-    "                        not counted in N)\n"
-    "      --class-count C=N resample class C to exactly N points on its own\n"
-    "                        (repeatable); -n N is then the count of the classes\n"
-    "                        not named (a percentage: of their points)\n"
-    "      --class-field F   the integer field holding the class (default\n"
-    "                        classification; LAS formats 0-5: its low 5 bits)\n"
-    "      --seed S          visiting order of the Poisson pass (0)\n"
-    "      --smooth-mode M   centroid (Lloyd step, default), vertex-mean (the authors'\n"
-    "                        release) or cotan (eq. 8 as printed; moves nothing)\n"
-    "      --free-surface    do not project smoothed points back onto the input surface\n"
-    "      --threads T       OpenMP threads (default: all cores)\n"
-    "      --mem SIZE        memory budget, e.g. 512M, 2G (default: a quarter of the\n"
-    "                        physical memory, at most 4G); larger inputs are tiled\n"
-    "      --tmpdir DIR      where spill files go (default: $TMPDIR, else the\n"
-    "                        output's directory)\n"
-    "      --min-tiles N     use the tiled engine with at least N tiles\n"
-    "      --report FILE     write what the run did as JSON (docs/report.md)\n"
-    "      --metrics         measure the result against the input (as wpd metrics;\n"
-    "                        loads both into memory): summary and report\n"
-    "      --ascii           ascii PLY output\n"
-    "      --force           replace OUT if it exists\n"
-    "  -v, --verbose         progress and the summary even when not on a terminal\n"
-    "  -q, --quiet           print nothing on success (errors still go to stderr)\n"
-    "Progress goes to stderr when it is a terminal, the summary to stdout when it is\n"
-    "one (or with --verbose).\n"
-    "Exit status: 0 success, 1 usage error (also: output exists, output is an input),\n"
-    "2 bad input file, 3 I/O error (also: disk full, output locked by another run),\n"
-    "4 memory budget too small or out of memory, 130 / 143 interrupted (SIGINT /\n"
-    "SIGTERM): no partial output and no spill files are left behind.\n";
-
 typedef struct resample_options {
     const char *output;       /* one output, or NULL with per_input */
     const char *per_input;    /* directory for one output per input */
@@ -164,7 +104,7 @@ enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
        OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
        OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT,
        OPT_SKIP_EXISTING, OPT_METRICS, OPT_EDGE_LABEL, OPT_DROP_CLASS, OPT_KEEP_CLASS,
-       OPT_CLASS_COUNT, OPT_CLASS_FIELD };
+       OPT_CLASS_COUNT, OPT_CLASS_FIELD, OPT_EVEN };
 
 /* The class options: 0, or -2 with the one-line error printed. */
 static int parse_class_option(int c, const char *arg, wpd_class_args *a)
@@ -191,6 +131,7 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_LAMBDA: return parse_positive(arg, 1e-3, 1e3, &p->lambda);
     case OPT_VOXEL: return parse_positive(arg, 1e-6, 1, &p->voxel_frac);
     case OPT_ITER: if (parse_positive(arg, 0, 1000, &v)) return -1; p->iterations = (int)v; return 0;
+    case OPT_EVEN: if (parse_positive(arg, 0, 1000, &v)) return -1; p->even_iterations = (int)v; return 0;
     case OPT_NOSMOOTH: p->smooth = 0; return 0;
     case OPT_SHARP: p->sharp = 1; return 0;
     case OPT_SEED: if (parse_positive(arg, 0, 1.8e19, &v)) return -1;
@@ -234,6 +175,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"lambda", required_argument, 0, OPT_LAMBDA},
         {"voxel-frac", required_argument, 0, OPT_VOXEL},
         {"iterations", required_argument, 0, OPT_ITER},
+        {"even-steps", required_argument, 0, OPT_EVEN},
         {"no-smooth", no_argument, 0, OPT_NOSMOOTH}, {"sharp", no_argument, 0, OPT_SHARP},
         {"seed", required_argument, 0, OPT_SEED}, {"threads", required_argument, 0, OPT_THREADS},
         {"ascii", no_argument, 0, OPT_ASCII}, {"force", no_argument, 0, OPT_FORCE},
@@ -257,7 +199,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:n:k:qvh", longopts, &idx)) != -1) {
         if (c == 'h') {
-            fputs(usage_text, stdout);
+            fputs(wpd_resample_usage, stdout);
             return 1;
         }
         int bad = c == '?' ? -1 : parse_option(c, optarg, o);
@@ -267,13 +209,13 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
             if (c != '?')
                 fprintf(stderr, "wpd resample: invalid value '%s' for %s\n", optarg,
                         c < 256 ? (char[]){'-', (char)c, 0} : longopts[idx].name);
-            fputs(usage_text, stderr);
+            fputs(wpd_resample_usage, stderr);
             return -1;
         }
     }
     if (optind >= argc || !o->count_text || !o->output == !o->per_input) {
         fprintf(stderr, "wpd resample: need inputs, -n N and one of -o OUT or --per-input DIR\n");
-        fputs(usage_text, stderr);
+        fputs(wpd_resample_usage, stderr);
         return -1;
     }
     if (o->skip_existing)
@@ -402,15 +344,15 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
            "exact count, %d sweeps)\n", r->radius, r->radius_estimate, r->first_pass_count,
            r->passes, r->poisson_count, r->exact_sweeps);
     if (o->params.smooth)
-        printf("  smoothing: %d iterations, %zu points fixed (open Voronoi cell), %zu pulled "
-               "back to the input surface, %zu kept still (no surface around them), %zu "
-               "isolated, %zu moves shortened for spacing and cover\n", o->params.iterations,
-               r->open_cells, r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
-    if (o->params.sharp) {
+        printf("  smoothing: %d iterations and %d even steps, %zu points fixed (open Voronoi "
+               "cell), %zu pulled back to the input surface, %zu kept still (no surface around "
+               "them), %zu isolated, %zu moves shortened for spacing and cover\n",
+               o->params.iterations, o->params.even_iterations, r->open_cells,
+               r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
+    if (o->params.sharp)
         printf("  sharp features: %llu input points labelled, %llu output points%s\n",
                (unsigned long long)r->sharp_points, (unsigned long long)r->sharp_samples,
                o->edge_label ? " (field " WPD_EDGE_FIELD ")" : "");
-    }
     if (r->in_memory)
         printf("  in memory: one tile, no spill\n");
     else

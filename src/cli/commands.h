@@ -14,6 +14,8 @@ int wpd_cmd_convert(int argc, char **argv);
 /* par: the ranks of an MPI run (wpd-mpi), which share the run and agree on
  * its outcome; rank 0 alone writes the output, progress and summary. */
 int wpd_cmd_resample(int argc, char **argv, const wpd_par *par);
+/* The help text of wpd resample (resample_usage.c). */
+extern const char *const wpd_resample_usage;
 
 /* Prints "wpd <command>: <msg>" on stderr and returns err->code. */
 int wpd_report_error(const char *command, const wpd_error *err);

@@ -212,7 +212,8 @@ static int finish(wpd_run *run, wpd_error *err)
 static int poisson_phase(wpd_run *run, wpd_error *err)
 {
     const wpd_params *p = run->p;
-    int surface = run->res->in_memory && p->smooth && p->iterations > 0 && p->keep_on_surface;
+    int surface = run->res->in_memory && p->smooth && p->iterations + p->even_iterations > 0 &&
+                  p->keep_on_surface;
     if (surface && !p->sharp) {
         const wpd_tile_data *d = &run->tiles.mem;
         if (wpd_grid_build_knn(&run->surface, d->xyz, NULL, d->n, p->k, run->surface_dk,
@@ -262,8 +263,9 @@ static int check_options(const wpd_resample_options *opt, wpd_error *err)
                         "positive", p->lambda, p->voxel_frac, p->density);
     if (p->k < 3 || p->k > 64)
         return wpd_fail(err, WPD_E_USAGE, "k = %d neighbours, expected 3..64", p->k);
-    if (p->iterations < 0)
-        return wpd_fail(err, WPD_E_USAGE, "%d smoothing iterations", p->iterations);
+    if (p->iterations < 0 || p->even_iterations < 0)
+        return wpd_fail(err, WPD_E_USAGE, "%d smoothing iterations, %d even steps", p->iterations,
+                        p->even_iterations);
     return 0;
 }
 

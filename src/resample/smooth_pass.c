@@ -46,7 +46,8 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, ctx_edge, nctx,
                            p->keep_on_surface ? surface : NULL, run->surface_dk,
                            (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations, r, threads,
-                           {p->resolution[0], p->resolution[1], p->resolution[2]}};
+                           {p->resolution[0], p->resolution[1], p->resolution[2]},
+                           p->even_iterations};
     wpd_smooth_stats st;
     if (wpd_smooth(&in, &st, err))
         goto done;
@@ -75,7 +76,7 @@ done:
 
 int wpd_smooth_phase(wpd_run *run, wpd_error *err)
 {
-    if (!run->p->smooth || run->p->iterations <= 0)
+    if (!run->p->smooth || run->p->iterations + run->p->even_iterations <= 0)
         return 0;
     run->res->moved = 1;
     if (wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, NULL, NULL, err))

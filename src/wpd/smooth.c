@@ -16,6 +16,7 @@
 #include "core/knn.h"
 #include "core/pca.h"
 #include "core/voronoi.h"
+#include "wpd/smooth_even.h"
 #include "wpd/smooth_guard.h"
 
 /* Why a sample keeps its place through every iteration (0: it may move). */
@@ -48,6 +49,8 @@ typedef struct frames {
     double *plane;   /* [9n] input plane last fitted for each sample: the point it
                         was fitted at, its centroid, its normal */
     uint8_t *fitted; /* [n] plane[] is valid */
+    double *spacing; /* [n] local spacing at the previous positions (even steps) */
+    int even;        /* this iteration is an even-spacing step (smooth_even.h) */
 } frames;
 
 static void free_frames(frames *f)
@@ -66,6 +69,7 @@ static void free_frames(frames *f)
     free(f->rho);
     free(f->plane);
     free(f->fitted);
+    free(f->spacing);
 }
 
 static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
@@ -88,9 +92,10 @@ static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
     f->rho = malloc(m * sizeof *f->rho);
     f->plane = malloc(9 * m * sizeof *f->plane);
     f->fitted = calloc(m, 1);
+    f->spacing = malloc(m * sizeof *f->spacing);
     int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
              (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
-             f->fitted;
+             f->fitted && f->spacing;
     return ok ? 0 : -1;
 }
 
@@ -462,7 +467,8 @@ static int try_move(const wpd_smooth_input *in, frames *f, const guards *g,
         q[a] = near->p[a] + t * m[a];
     int pulled = 0;
     if (in->surface) {
-        project_on_surface(in->surface, f, o, q);
+        if (!f->even)
+            project_on_surface(in->surface, f, o, q);
         pulled = hold_on_surface(in->surface, in->resolution, q);
     }
     const double *s0 = f->start + 3 * o;
@@ -496,7 +502,10 @@ static int guarded_move(const wpd_smooth_input *in, frames *f, const guards *g, 
         t = fmin(t, wpd_cover_limit(&g->cover, o, p, m));
     wpd_spacing_near near;
     wpd_spacing_gather(&g->spacing, o, p, &near);
-    for (int a = 0; a < (int)(sizeof shorter / sizeof *shorter) && t > 0; a++)
+    /* An even step goes onto its input point or nowhere: a point between
+     * the two is neither an input point nor judged by the step's sum. */
+    int tries = f->even ? (t >= 1) : (int)(sizeof shorter / sizeof *shorter);
+    for (int a = 0; a < tries && t > 0; a++)
         if (try_move(in, f, g, &near, m, t * shorter[a], out))
             return t * shorter[a] < 1 ? MOVE_SHORTENED : MOVE_FULL;
     memcpy(out, p, 3 * sizeof *out);
@@ -507,12 +516,37 @@ static int guarded_move(const wpd_smooth_input *in, frames *f, const guards *g, 
  * the cap a sample announces to its neighbours leaves room for it. */
 #define PLAN_ROOM 1.25
 
-/* First half of an iteration: every sample's Voronoi move and the longest
- * step it plans (0 for one that stays). Returns the open cells. */
+/* First half of an even-spacing step: every sample's move onto an input
+ * point (smooth_even.h) and its length as its cap. Sharp-feature samples
+ * stay: they mark the edges, at their own spacing. */
+static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double *prev,
+                            double step_max, int threads)
+{
+    wpd_even_spacings(prev, f->n, f->nb, f->cnt, f->k, f->spacing, threads);
+    wpd_even_view v = {prev, f->n, f->nb, f->cnt, f->k, f->spacing};
+    double floor = (WPD_SMOOTH_KEEP + STORE_MARGIN) * in->spacing;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
+    for (size_t o = 0; o < f->n; o++) {
+        double *m = f->plan + 3 * o;
+        f->cap[o] = 0;
+        if (f->half && f->half[o])
+            continue;
+        wpd_even_limits lim = {step_max, floor, f->start + 3 * o, WANDER_MAX * in->spacing};
+        if (wpd_even_move(&v, in->surface, o, &lim, m))
+            f->cap[o] = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    }
+}
+
+/* First half of a Voronoi step: every sample's Voronoi move and the
+ * longest step it plans (0 for one that stays). Returns the open cells. */
 static size_t plan_moves(const wpd_smooth_input *in, frames *f, const double *prev,
                          double step_max, int threads)
 {
     size_t open = 0;
+    if (f->even) {
+        plan_even_moves(in, f, prev, step_max, threads);
+        return 0;
+    }
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : open)
     for (size_t o = 0; o < f->n; o++) {
         double *m = f->plan + 3 * o;
@@ -540,7 +574,9 @@ static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const doubl
         return -1;
     g->spacing.grid = &g->grid;
     g->spacing.pos = prev;
-    st->open_cells = plan_moves(in, f, prev, g->spacing.step_max, threads);
+    size_t open = plan_moves(in, f, prev, g->spacing.step_max, threads);
+    if (!f->even)
+        st->open_cells = open;
     if (g->cover.n && wpd_cover_update(&g->cover, &g->spacing, prev, threads, err))
         return -1;
     size_t shortened = 0, refused = 0;
@@ -584,7 +620,7 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
 {
     memset(stats, 0, sizeof *stats);
     size_t n = in->n, all = in->n + in->nctx;
-    if (n == 0 || in->iterations <= 0)
+    if (n == 0 || in->iterations + in->even_iterations <= 0)
         return 0;
     int threads = in->threads > 0 ? in->threads : omp_get_max_threads();
     double t0 = omp_get_wtime();
@@ -603,7 +639,10 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     double t1 = omp_get_wtime();
     stats->normals_seconds = t1 - t0;
     double total_move = 0, *prev = f.pos;
-    for (int it = 0; it < in->iterations; it++) {
+    /* The even-spacing steps need the input points as candidates. */
+    int even = in->surface ? in->even_iterations : 0;
+    for (int it = 0; it < in->iterations + even; it++) {
+        f.even = it >= in->iterations;
         if (iterate(in, &f, &g, prev, next, threads, stats, err))
             goto done;
         /* Fixed order of summation: the same total whatever the threads. */

@@ -60,7 +60,7 @@ typedef struct wpd_smooth_input {
                                 point (a search radius; 0: the grid's cell) */
     wpd_smooth_mode mode;
     int k;                   /* neighbours per sample (13), 3..WPD_KNN_MAX */
-    int iterations;          /* 5 */
+    int iterations;          /* Voronoi steps (5) */
     double spacing;          /* the Poisson radius r of the samples (> 0; 0: nothing
                                 moves): the guards' unit, no two samples closer to
                                 begin with */
@@ -68,6 +68,8 @@ typedef struct wpd_smooth_input {
     double resolution[3];    /* the output stores coordinates as multiples of these
                                 per axis in the block frame (LAS scale); 0: exact.
                                 The surface guarantee judges rounded positions. */
+    int even_iterations;     /* even-spacing steps after the Voronoi steps
+                                (smooth_even.h; they need surface, else none) */
 } wpd_smooth_input;
 
 typedef struct wpd_smooth_stats {

@@ -1,0 +1,61 @@
+/* smooth_even.h - the even-spacing steps of smoothing (internal to
+ * wpd/smooth.c).
+ *
+ * The Voronoi (Lloyd) steps even the samples' cells on a surface; they
+ * leave the local spacing uneven where a Poisson sample left its gaps and
+ * clusters, and they cannot act where there is no surface (vegetation,
+ * multiple returns). An even-spacing step moves a sample onto one of the
+ * input points near it, the one that brings the local spacing m (the mean
+ * distance to the EVEN_K nearest samples: the paper's local density
+ * measure) of the sample and of its neighbours closest to their local
+ * mean. Positions are input points, so the step needs no tangent plane and
+ * invents nothing; distances are 3-D, so it works in volumes as on
+ * surfaces. All samples plan from the previous positions (Jacobi), so the
+ * result does not depend on threads; the guards of smooth_guard.h judge
+ * the moves as they judge the Lloyd steps. docs/algorithm.md, section 4.
+ */
+#ifndef WPD_SMOOTH_EVEN_H
+#define WPD_SMOOTH_EVEN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/grid.h"
+
+/* Samples that define a sample's local spacing (the local density
+ * measure of `wpd metrics` and of the paper uses 6). */
+#define WPD_EVEN_K 6
+
+/* The samples' neighbourhoods at one iteration's previous positions. */
+typedef struct wpd_even_view {
+    const double *prev;     /* positions: n samples, then context samples */
+    size_t n;
+    const uint32_t *nb;     /* [n*k] neighbour lists (index < n: sample, else context) */
+    const uint8_t *cnt;     /* [n] neighbours in each list */
+    int k;
+    const double *spacing;  /* [n] local spacing of each sample at prev */
+} wpd_even_view;
+
+/* spacing[o] = mean distance from sample o to its WPD_EVEN_K nearest
+ * listed neighbours at prev (all listed ones if fewer; 0 if none). */
+void wpd_even_spacings(const double *prev, size_t n, const uint32_t *nb, const uint8_t *cnt,
+                       int k, double *spacing, int threads);
+
+/* Limits of one sample's step. */
+typedef struct wpd_even_limits {
+    double reach;           /* candidates lie within this of the sample (its step cap) */
+    double floor;           /* and at least this far from every listed neighbour */
+    const double *start;    /* and within wander of here (the Poisson position) */
+    double wander;
+} wpd_even_limits;
+
+/* The step that takes sample o onto the input point of surface (at most
+ * the 24 nearest within reach) that lowers sum (m_s - t)^2 most, over o
+ * and its listed neighbours s that are samples, with t the mean of their
+ * spacings at prev and the neighbours' lists as at prev but for o's
+ * position; ties go to the nearer candidate. Writes the step to m and
+ * returns 1, or returns 0 where no candidate lowers it (m zero). */
+int wpd_even_move(const wpd_even_view *v, const wpd_grid *surface, size_t o,
+                  const wpd_even_limits *lim, double m[3]);
+
+#endif
