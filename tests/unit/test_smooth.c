@@ -81,12 +81,13 @@ static cloud sheet(int side, double h, double bend, uint64_t seed)
     return c;
 }
 
-static int smooth(cloud *c, double *t, double r, int threads, wpd_smooth_stats *st)
+/* 5 Voronoi steps, then `even` even-spacing steps (smooth_even.h). */
+static int smooth(cloud *c, double *t, double r, int threads, int even, wpd_smooth_stats *st)
 {
     wpd_error err;
     memcpy(t, c->s, 3 * c->m * sizeof *t);
     wpd_smooth_input in = {t, c->m, NULL, NULL, NULL, 0, &c->surface, 0, WPD_SMOOTH_CENTROID,
-                           13, 5, r, threads, {0, 0, 0}};
+                           13, 5, r, threads, {0, 0, 0}, even};
     return wpd_smooth(&in, st, &err);
 }
 
@@ -130,7 +131,7 @@ TEST(smooth_keeps_the_poisson_spacing_on_a_jittered_plane_and_a_cylinder)
         CHECK(c.m > 200 && min_spacing(c.s, c.m) >= r);
         double *t = malloc(3 * c.m * sizeof *t), *t1 = malloc(3 * c.m * sizeof *t1);
         wpd_smooth_stats st, st1;
-        CHECK(smooth(&c, t, r, 2, &st) == 0 && smooth(&c, t1, r, 1, &st1) == 0);
+        CHECK(smooth(&c, t, r, 2, 3, &st) == 0 && smooth(&c, t1, r, 1, 3, &st1) == 0);
         double d = min_spacing(t, c.m);
         CHECK_MSG(d >= WPD_SMOOTH_KEEP * r, "shape %d: two samples %.3f r apart", shape, d / r);
         CHECK_MSG(memcmp(t, t1, 3 * c.m * sizeof *t) == 0, "shape %d: threads changed the result",
@@ -180,7 +181,7 @@ TEST(smooth_opens_no_hole_in_the_input)
         double before = cover_radius(&c, c.s, c.m);
         double *t = malloc(3 * c.m * sizeof *t);
         wpd_smooth_stats st;
-        CHECK(smooth(&c, t, r, 2, &st) == 0);
+        CHECK(smooth(&c, t, r, 2, 3, &st) == 0);
         double after = cover_radius(&c, t, c.m);
         CHECK_MSG(after <= fmax(r, before) * (1 + 1e-6),
                   "shape %d: hole %.4f r after, %.4f r before", shape, after / r, before / r);
@@ -204,7 +205,7 @@ TEST(smooth_leaves_a_volumetric_blob_still)
     sample(&c, 1, 0);
     double *t = malloc(3 * c.m * sizeof *t);
     wpd_smooth_stats st;
-    CHECK(smooth(&c, t, 1, 2, &st) == 0);
+    CHECK(smooth(&c, t, 1, 2, 0, &st) == 0); /* Voronoi steps only */
     size_t moved = 0, inside = 0;
     for (size_t i = 0; i < 3 * c.m; i += 3) {
         int in = 1;
