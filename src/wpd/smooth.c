@@ -50,6 +50,7 @@ typedef struct frames {
                         was fitted at, its centroid, its normal */
     uint8_t *fitted; /* [n] plane[] is valid */
     double *spacing; /* [n] local spacing at the previous positions (even steps) */
+    wpd_even_nearest *nearest; /* [n] the neighbours that define it */
     int even;        /* this iteration is an even-spacing step (smooth_even.h) */
 } frames;
 
@@ -70,6 +71,7 @@ static void free_frames(frames *f)
     free(f->plane);
     free(f->fitted);
     free(f->spacing);
+    free(f->nearest);
 }
 
 static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
@@ -93,9 +95,10 @@ static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
     f->plane = malloc(9 * m * sizeof *f->plane);
     f->fitted = calloc(m, 1);
     f->spacing = malloc(m * sizeof *f->spacing);
+    f->nearest = malloc(m * sizeof *f->nearest);
     int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
              (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
-             f->fitted && f->spacing;
+             f->fitted && f->spacing && f->nearest;
     return ok ? 0 : -1;
 }
 
@@ -522,8 +525,8 @@ static int guarded_move(const wpd_smooth_input *in, frames *f, const guards *g, 
 static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double *prev,
                             double step_max, int threads)
 {
-    wpd_even_spacings(prev, f->n, f->nb, f->cnt, f->k, f->spacing, threads);
-    wpd_even_view v = {prev, f->n, f->nb, f->cnt, f->k, f->spacing};
+    wpd_even_spacings(prev, f->n, f->nb, f->cnt, f->k, f->spacing, f->nearest, threads);
+    wpd_even_view v = {prev, f->n, f->nb, f->cnt, f->k, f->spacing, f->nearest};
     double floor = (WPD_SMOOTH_KEEP + STORE_MARGIN) * in->spacing;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
     for (size_t o = 0; o < f->n; o++) {

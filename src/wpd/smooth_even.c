@@ -47,37 +47,57 @@ static int smallest(const double *d, int n, int kk, double *low)
 }
 
 void wpd_even_spacings(const double *prev, size_t n, const uint32_t *nb, const uint8_t *cnt,
-                       int k, double *spacing, int threads)
+                       int k, double *spacing, wpd_even_nearest *nearest, int threads)
 {
 #pragma omp parallel for num_threads(threads) schedule(static, 1024)
     for (size_t o = 0; o < n; o++) {
-        double d[WPD_KNN_MAX], low[WPD_EVEN_K];
+        wpd_even_nearest *e = nearest + o;
         const uint32_t *l = nb + o * (size_t)k;
-        for (int j = 0; j < cnt[o]; j++)
-            d[j] = dist(prev + 3 * o, prev + 3 * (size_t)l[j]);
-        int got = smallest(d, cnt[o], WPD_EVEN_K, low);
+        int got = 0;
+        /* Insertion into the K + 1 nearest, ties by list order. */
+        for (int j = 0; j < cnt[o]; j++) {
+            double d = dist(prev + 3 * o, prev + 3 * (size_t)l[j]);
+            int at = got < WPD_EVEN_K + 1 ? got++ : WPD_EVEN_K + 1;
+            if (at == WPD_EVEN_K + 1 && d >= e->d[WPD_EVEN_K])
+                continue;
+            if (at == WPD_EVEN_K + 1)
+                at = WPD_EVEN_K;
+            for (; at > 0 && e->d[at - 1] > d; at--) {
+                e->d[at] = e->d[at - 1];
+                e->id[at] = e->id[at - 1];
+            }
+            e->d[at] = d;
+            e->id[at] = l[j];
+        }
         double sum = 0;
-        for (int j = 0; j < got; j++)
-            sum += low[j];
-        spacing[o] = got ? sum / got : 0;
+        int kk = got < WPD_EVEN_K ? got : WPD_EVEN_K;
+        for (int j = 0; j < kk; j++)
+            sum += e->d[j];
+        for (int j = got; j < WPD_EVEN_K + 1; j++)
+            e->id[j] = UINT32_MAX, e->d[j] = INFINITY;
+        spacing[o] = kk ? sum / kk : 0;
     }
 }
 
-/* Neighbour s's spacing parts with sample o left out of its list. */
+/* Neighbour s's spacing parts with sample o left out of its list, from
+ * its nearest listed neighbours: o among the first WPD_EVEN_K or not,
+ * the first WPD_EVEN_K others are among the first WPD_EVEN_K + 1. */
 static spacing_without without(const wpd_even_view *v, size_t s, size_t o)
 {
-    double d[WPD_KNN_MAX], low[WPD_EVEN_K + 1];
-    const uint32_t *l = v->nb + s * (size_t)v->k;
+    const wpd_even_nearest *e = v->nearest + s;
+    double low[WPD_EVEN_K + 1];
     int m = 0;
+    for (int j = 0; j < WPD_EVEN_K + 1 && e->id[j] != UINT32_MAX; j++)
+        if (e->id[j] != o)
+            low[m++] = e->d[j];
+    int total = v->cnt[s]; /* listed neighbours other than o */
     for (int j = 0; j < v->cnt[s]; j++)
-        if (l[j] != o)
-            d[m++] = dist(v->prev + 3 * s, v->prev + 3 * (size_t)l[j]);
-    int kk = m + 1 < WPD_EVEN_K ? m + 1 : WPD_EVEN_K;
-    int got = smallest(d, m, kk, low);
+        total -= v->nb[s * (size_t)v->k + j] == o;
+    int kk = total + 1 < WPD_EVEN_K ? total + 1 : WPD_EVEN_K;
     spacing_without w = {0, INFINITY, kk};
-    for (int j = 0; j < kk - 1 && j < got; j++)
+    for (int j = 0; j < kk - 1 && j < m; j++)
         w.sum += low[j];
-    if (got >= kk)
+    if (m >= kk)
         w.next = low[kk - 1];
     return w;
 }

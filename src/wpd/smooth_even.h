@@ -26,6 +26,13 @@
  * measure of `wpd metrics` and of the paper uses 6). */
 #define WPD_EVEN_K 6
 
+/* A sample's WPD_EVEN_K + 1 nearest listed neighbours at prev, nearest
+ * first (fewer where the list is shorter: the rest have id UINT32_MAX). */
+typedef struct wpd_even_nearest {
+    uint32_t id[WPD_EVEN_K + 1];
+    double d[WPD_EVEN_K + 1];
+} wpd_even_nearest;
+
 /* The samples' neighbourhoods at one iteration's previous positions. */
 typedef struct wpd_even_view {
     const double *prev;     /* positions: n samples, then context samples */
@@ -34,12 +41,14 @@ typedef struct wpd_even_view {
     const uint8_t *cnt;     /* [n] neighbours in each list */
     int k;
     const double *spacing;  /* [n] local spacing of each sample at prev */
+    const wpd_even_nearest *nearest; /* [n] */
 } wpd_even_view;
 
 /* spacing[o] = mean distance from sample o to its WPD_EVEN_K nearest
- * listed neighbours at prev (all listed ones if fewer; 0 if none). */
+ * listed neighbours at prev (all listed ones if fewer; 0 if none), and
+ * nearest[o] those neighbours and the next one. */
 void wpd_even_spacings(const double *prev, size_t n, const uint32_t *nb, const uint8_t *cnt,
-                       int k, double *spacing, int threads);
+                       int k, double *spacing, wpd_even_nearest *nearest, int threads);
 
 /* Limits of one sample's step. */
 typedef struct wpd_even_limits {

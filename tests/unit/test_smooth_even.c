@@ -72,6 +72,7 @@ TEST(even_move_takes_the_candidate_a_literal_sum_picks)
     int checked = 0, moved = 0;
     for (int trial = 0; trial < 20; trial++) {
         double pos[3 * (N + NCTX)], inp[3 * INPUT], spacing[N];
+        wpd_even_nearest nearest[N];
         uint32_t nb[N * K];
         uint8_t cnt[N];
         for (int i = 0; i < 3 * (N + NCTX); i++)
@@ -99,12 +100,12 @@ TEST(even_move_takes_the_candidate_a_literal_sum_picks)
                 nb[o * K + at] = j;
             }
         }
-        wpd_even_spacings(pos, N, nb, cnt, K, spacing, 2);
+        wpd_even_spacings(pos, N, nb, cnt, K, spacing, nearest, 2);
         wpd_grid surface = {0};
         wpd_error err;
         CHECK(wpd_grid_build(&surface, inp, NULL, INPUT, 0.3, 1, &err) == 0);
         double reach = 0.25 + 0.1 * unit(&seed), floor = 0.2 * unit(&seed);
-        wpd_even_view v = {pos, N, nb, cnt, K, spacing};
+        wpd_even_view v = {pos, N, nb, cnt, K, spacing, nearest};
         for (size_t o = 0; o < N; o++) {
             double start[3], m[3];
             for (int a = 0; a < 3; a++)
