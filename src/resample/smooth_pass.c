@@ -5,7 +5,7 @@
  * where they are. The context stays put while a tile is smoothed and the
  * spacing guard keeps the tile's samples clear of it, so a tile smoothed
  * later keeps clear of its neighbours' final positions; no sample strays
- * more than r from its start and the guard looks at most 1.25 r around
+ * more than r from its start and the guard looks at most 1.55 r around
  * it, so 3 r of context holds every sample the guard must see. The halo
  * (2.5 r) holds the input points whose cover the tile's samples keep, but
  * for points farther than 1.5 r from every sample (holes the exact count

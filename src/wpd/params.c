@@ -16,7 +16,7 @@ void wpd_params_default(wpd_params *p)
     p->max_passes = 40;
     p->k = 13;
     p->iterations = 5;
-    p->even_iterations = 3;
+    p->even_iterations = 4;
     p->smooth = 1;
     p->smooth_mode = WPD_SMOOTH_CENTROID;
     p->keep_on_surface = 1;

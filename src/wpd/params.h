@@ -21,7 +21,7 @@ typedef struct wpd_params {
     int max_passes;           /* refinement passes at most (40) */
     int k;                    /* neighbours for normals and smoothing (13) */
     int iterations;           /* smoothing iterations (5) */
-    int even_iterations;      /* even-spacing steps after them (3; smooth_even.h) */
+    int even_iterations;      /* even-spacing steps, alternated with them (4; smooth_even.h) */
     int smooth;               /* 1: weighted tangent smoothing (on) */
     int smooth_mode;          /* a wpd_smooth_mode (smooth.h): WPD_SMOOTH_CENTROID */
     int keep_on_surface;      /* 1: project smoothed samples onto the input surface (on) */

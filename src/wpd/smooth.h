@@ -68,8 +68,9 @@ typedef struct wpd_smooth_input {
     double resolution[3];    /* the output stores coordinates as multiples of these
                                 per axis in the block frame (LAS scale); 0: exact.
                                 The surface guarantee judges rounded positions. */
-    int even_iterations;     /* even-spacing steps after the Voronoi steps
-                                (smooth_even.h; they need surface, else none) */
+    int even_iterations;     /* even-spacing steps, alternated with the Voronoi
+                                steps, a Voronoi step first (smooth_even.h; they
+                                need surface, else none) */
 } wpd_smooth_input;
 
 typedef struct wpd_smooth_stats {

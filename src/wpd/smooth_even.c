@@ -129,10 +129,9 @@ static double energy(const wpd_even_view *v, size_t o, const double q[3], double
     return e;
 }
 
-int wpd_even_move(const wpd_even_view *v, const wpd_grid *surface, size_t o,
-                  const wpd_even_limits *lim, double m[3])
+int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t o,
+                        const wpd_even_limits *lim, uint32_t slot[WPD_EVEN_TRIES])
 {
-    m[0] = m[1] = m[2] = 0;
     const double *p = v->prev + 3 * o;
     const uint32_t *l = v->nb + o * (size_t)v->k;
     spacing_without w[WPD_KNN_MAX];
@@ -146,27 +145,28 @@ int wpd_even_move(const wpd_even_view *v, const wpd_grid *surface, size_t o,
             t += v->spacing[l[j]];
         }
     t /= nw + 1;
-    uint32_t slot[EVEN_CANDIDATES];
+    uint32_t cand[EVEN_CANDIDATES];
     int got = wpd_knn_slots(surface, p, EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, lim->reach,
-                            slot, NULL);
+                            cand, NULL);
     /* Staying is judged by the same sum, without the floor (the sample
      * may already be closer than it: the guards keep what is). */
-    double best = energy(v, o, p, 0, w, who, nw, t) * (1 - 1e-12);
-    int pick = -1;
+    double stay = energy(v, o, p, 0, w, who, nw, t) * (1 - 1e-12), best[WPD_EVEN_TRIES];
+    int kept = 0;
     for (int c = 0; c < got; c++) {
-        const double *q = surface->xyz + 3 * (size_t)slot[c];
+        const double *q = surface->xyz + 3 * (size_t)cand[c];
         if (dist(q, lim->start) > lim->wander)
             continue;
         double e = energy(v, o, q, lim->floor, w, who, nw, t);
-        if (e < best) {
-            best = e;
-            pick = c;
+        if (!(e < stay) || (kept == WPD_EVEN_TRIES && e >= best[kept - 1]))
+            continue;
+        /* Insertion after every equal sum: candidates come nearest first. */
+        int at = kept < WPD_EVEN_TRIES ? kept++ : WPD_EVEN_TRIES - 1;
+        for (; at > 0 && best[at - 1] > e; at--) {
+            best[at] = best[at - 1];
+            slot[at] = slot[at - 1];
         }
+        best[at] = e;
+        slot[at] = cand[c];
     }
-    if (pick < 0)
-        return 0;
-    const double *q = surface->xyz + 3 * (size_t)slot[pick];
-    for (int a = 0; a < 3; a++)
-        m[a] = q[a] - p[a];
-    return 1;
+    return kept;
 }

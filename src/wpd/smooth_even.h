@@ -58,13 +58,18 @@ typedef struct wpd_even_limits {
     double wander;
 } wpd_even_limits;
 
-/* The step that takes sample o onto the input point of surface (at most
- * the 24 nearest within reach) that lowers sum (m_s - t)^2 most, over o
- * and its listed neighbours s that are samples, with t the mean of their
+/* Input points a sample may move onto, best first, when the guards
+ * refuse the best. */
+#define WPD_EVEN_TRIES 4
+
+/* The input points of surface within reach of sample o (at most the 24
+ * nearest) that lower sum (m_s - t)^2 below its value where o stands, over
+ * o and its listed neighbours s that are samples, with t the mean of their
  * spacings at prev and the neighbours' lists as at prev but for o's
- * position; ties go to the nearer candidate. Writes the step to m and
- * returns 1, or returns 0 where no candidate lowers it (m zero). */
-int wpd_even_move(const wpd_even_view *v, const wpd_grid *surface, size_t o,
-                  const wpd_even_limits *lim, double m[3]);
+ * position. Writes the grid slots of the WPD_EVEN_TRIES best to slot[],
+ * lowest sum first (ties: the nearer point), and returns how many (0:
+ * no input point lowers it). */
+int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t o,
+                        const wpd_even_limits *lim, uint32_t slot[WPD_EVEN_TRIES]);
 
 #endif
