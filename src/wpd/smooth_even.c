@@ -104,9 +104,12 @@ static spacing_without without(const wpd_even_view *v, size_t s, size_t o)
 
 /* The sum of squared deviations from t with sample o at q: o's own spacing
  * among its listed neighbours, and each sample neighbour's. Returns
- * INFINITY where q is closer than floor to a listed neighbour. */
+ * INFINITY where q is closer than floor to a listed neighbour, and some
+ * value >= bound as soon as the partial sum reaches bound (its terms are
+ * not negative, so the whole sum would too). */
 static double energy(const wpd_even_view *v, size_t o, const double q[3], double floor,
-                     const spacing_without *w, const uint32_t *who, int nw, double t)
+                     const spacing_without *w, const uint32_t *who, int nw, double t,
+                     double bound)
 {
     double d[WPD_KNN_MAX], low[WPD_EVEN_K];
     const uint32_t *l = v->nb + o * (size_t)v->k;
@@ -121,7 +124,7 @@ static double energy(const wpd_even_view *v, size_t o, const double q[3], double
         own += low[j];
     own = got ? own / got - t : 0;
     double e = own * own;
-    for (int s = 0; s < nw; s++) {
+    for (int s = 0; s < nw && e < bound; s++) {
         double ds = dist(q, v->prev + 3 * (size_t)who[s]);
         double ms = (w[s].sum + fmin(ds, w[s].next)) / w[s].kk - t;
         e += ms * ms;
@@ -134,6 +137,11 @@ int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t 
 {
     const double *p = v->prev + 3 * o;
     const uint32_t *l = v->nb + o * (size_t)v->k;
+    uint32_t cand[EVEN_CANDIDATES];
+    int got = wpd_knn_slots(surface, p, EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, lim->reach,
+                            cand, NULL);
+    if (got == 0)
+        return 0;
     spacing_without w[WPD_KNN_MAX];
     uint32_t who[WPD_KNN_MAX];
     int nw = 0;
@@ -145,19 +153,19 @@ int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t 
             t += v->spacing[l[j]];
         }
     t /= nw + 1;
-    uint32_t cand[EVEN_CANDIDATES];
-    int got = wpd_knn_slots(surface, p, EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, lim->reach,
-                            cand, NULL);
     /* Staying is judged by the same sum, without the floor (the sample
      * may already be closer than it: the guards keep what is). */
-    double stay = energy(v, o, p, 0, w, who, nw, t) * (1 - 1e-12), best[WPD_EVEN_TRIES];
+    double stay = energy(v, o, p, 0, w, who, nw, t, INFINITY) * (1 - 1e-12);
+    double best[WPD_EVEN_TRIES];
     int kept = 0;
     for (int c = 0; c < got; c++) {
         const double *q = surface->xyz + 3 * (size_t)cand[c];
         if (dist(q, lim->start) > lim->wander)
             continue;
-        double e = energy(v, o, q, lim->floor, w, who, nw, t);
-        if (!(e < stay) || (kept == WPD_EVEN_TRIES && e >= best[kept - 1]))
+        /* A point must beat staying, and the worst kept once 4 are. */
+        double bound = kept == WPD_EVEN_TRIES ? fmin(stay, best[kept - 1]) : stay;
+        double e = energy(v, o, q, lim->floor, w, who, nw, t, bound);
+        if (!(e < bound))
             continue;
         /* Insertion after every equal sum: candidates come nearest first. */
         int at = kept < WPD_EVEN_TRIES ? kept++ : WPD_EVEN_TRIES - 1;
