@@ -581,9 +581,11 @@ static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double 
         wpd_even_limits lim = {step_max, floor, f->start + 3 * o, WANDER_MAX * in->spacing};
         uint32_t *onto = f->onto + o * WPD_EVEN_TRIES;
         f->tries[o] = (uint8_t)wpd_even_candidates(&v, in->surface, o, &lim, onto);
-        /* The cap covers every point it may try. */
+        /* The cap covers every point it may try, as the output will
+         * store it (an input point may lie an ulp off the lattice). */
         for (int c = 0; c < f->tries[o]; c++) {
-            const double *q = in->surface->xyz + 3 * (size_t)onto[c];
+            double q[3];
+            round_to_output(in->resolution, in->surface->xyz + 3 * (size_t)onto[c], q);
             double d[3] = {q[0] - prev[3 * o], q[1] - prev[3 * o + 1], q[2] - prev[3 * o + 2]};
             f->cap[o] = fmax(f->cap[o], sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
         }
@@ -679,9 +681,11 @@ static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_
         st->volume_fixed += f->still[o] == STILL_VOLUME;
         st->isolated_fixed += f->still[o] == STILL_ISOLATED;
     }
+    /* The guard's reach follows the longest step that will be taken. */
+    double step_max = in->surface && in->even_iterations > 0 ? fmax(STEP_MAX, EVEN_REACH)
+                                                             : STEP_MAX;
     g->spacing = (wpd_spacing_guard){NULL, NULL, f->n, f->cap, f->half, in->spacing,
-                                     STORE_MARGIN * in->spacing,
-                                     fmax(STEP_MAX, EVEN_REACH) * in->spacing};
+                                     STORE_MARGIN * in->spacing, step_max * in->spacing};
     if (in->surface && wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx,
                                        in->spacing, threads, err))
         return -1;
@@ -692,7 +696,9 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
 {
     memset(stats, 0, sizeof *stats);
     size_t n = in->n, all = in->n + in->nctx;
-    if (n == 0 || in->iterations + in->even_iterations <= 0)
+    /* The even-spacing steps need the input points as candidates. */
+    int even = in->surface ? in->even_iterations : 0;
+    if (n == 0 || in->iterations + even <= 0)
         return 0;
     int threads = in->threads > 0 ? in->threads : omp_get_max_threads();
     double t0 = omp_get_wtime();
@@ -711,8 +717,6 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     double t1 = omp_get_wtime();
     stats->normals_seconds = t1 - t0;
     double total_move = 0, *prev = f.pos;
-    /* The even-spacing steps need the input points as candidates. */
-    int even = in->surface ? in->even_iterations : 0;
     for (int it = 0; it < in->iterations + even; it++) {
         f.even = even_step(it, in->iterations, even);
         if (iterate(in, &f, &g, prev, next, threads, stats, err))

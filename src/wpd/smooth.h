@@ -16,12 +16,17 @@
  * (vegetation, multiple returns: surface variation above 0.1) or whose
  * input neighbours are sparser than the samples.
  *
+ * With the input points given, even-spacing steps are taken in turn with
+ * those Voronoi steps (smooth_even.h): each sample but the sharp-feature
+ * ones moves onto the input point near it that best evens its and its
+ * neighbours' local spacing, in volumes as on surfaces.
+ *
  * The paper moves samples within their tangent planes only, so on a curved
  * surface they drift off it, a little more each iteration. Here, when the
  * input points are given, a moved sample is put back on the surface: onto
  * the PCA plane of the k input points nearest to its new position.
  *
- * Guarantees (smooth_guard.h): no two samples end closer than 0.75 x their
+ * Guarantees (smooth_guard.h): no two samples end closer than 0.82 x their
  * Poisson distance (spacing; spacing/2 between two sharp-feature samples),
  * if they started at least that far apart; with the input points given, no
  * input point ends farther from the samples than max(spacing, its distance
@@ -76,8 +81,10 @@ typedef struct wpd_smooth_input {
 typedef struct wpd_smooth_stats {
     size_t open_cells;       /* samples kept fixed for an open cell (last iteration) */
     size_t sharp_fixed;      /* sharp-feature samples kept fixed */
-    size_t volume_fixed;     /* kept fixed: their neighbourhood is no surface */
-    size_t isolated_fixed;   /* kept fixed: no scanned surface around them */
+    size_t volume_fixed;     /* kept fixed by the Voronoi steps: their neighbourhood
+                                is no surface (even-spacing steps may move them) */
+    size_t isolated_fixed;   /* kept fixed by the Voronoi steps: no scanned surface
+                                around them (even-spacing steps may move them) */
     size_t shortened;        /* moves shortened by the spacing or coverage guard
                                 (all iterations; smooth_guard.h) */
     size_t refused;          /* moves the guards refused altogether */

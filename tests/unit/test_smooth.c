@@ -81,7 +81,8 @@ static cloud sheet(int side, double h, double bend, uint64_t seed)
     return c;
 }
 
-/* 5 Voronoi steps, then `even` even-spacing steps (smooth_even.h). */
+/* 5 Voronoi steps and, in turn with them, `even` even-spacing steps
+ * (smooth_even.h). */
 static int smooth(cloud *c, double *t, double r, int threads, int even, wpd_smooth_stats *st)
 {
     wpd_error err;

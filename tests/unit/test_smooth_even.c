@@ -169,7 +169,7 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
             }
             int want = 0;
             for (int c = 0; c < nbetter; c++)
-                if (better[c].e < stay * (1 - 1e-9))
+                if (better[c].e < stay * (1 - 1e-12))
                     better[want++] = better[c];
             qsort(better, (size_t)want, sizeof *better, by_sum);
             want = want < WPD_EVEN_TRIES ? want : WPD_EVEN_TRIES;
