@@ -288,3 +288,65 @@ TEST(even_steps_even_the_spacing_on_a_plane_and_in_a_volume)
         free(t1);
     }
 }
+
+/* Samples of inp at r (every 4th dropped) into s; returns how many. */
+static size_t thinned_sample(const double *inp, size_t n, double r, double *s)
+{
+    wpd_error err;
+    uint64_t *gid = malloc(n * sizeof *gid);
+    uint32_t *idx = malloc(n * sizeof *idx);
+    for (size_t i = 0; i < n; i++)
+        gid[i] = i;
+    wpd_poisson_input pin = {inp, gid, NULL, NULL, n, NULL, 0, r, 3, 2};
+    long got = wpd_poisson_pass(&pin, idx, &err);
+    size_t m = 0;
+    for (long i = 0; i < got; i++)
+        if (i % 4 != 3)
+            memcpy(s + 3 * m++, inp + 3 * (size_t)idx[i], 3 * sizeof *s);
+    free(gid);
+    free(idx);
+    return m;
+}
+
+TEST(even_steps_move_as_much_on_a_las_lattice)
+{
+    /* LAS output stores multiples of its scale: input points come as
+     * (X s + offset) - origin, an ulp or so off the lattice, and a step's
+     * end is rounded to it. The steps must move as much as with exact
+     * output (a cap measured to the unrounded point refused them). */
+    enum { SIDE = 90 };
+    const double scale = 0.001, offset = 512345.678, r = 1;
+    uint64_t seed = 31;
+    size_t n = SIDE * SIDE;
+    double *inp = malloc(3 * n * sizeof *inp), *s = malloc(3 * n * sizeof *s);
+    double *t[2] = {malloc(3 * n * sizeof(double)), malloc(3 * n * sizeof(double))};
+    for (size_t i = 0; i < n; i++)
+        for (int a = 0; a < 3; a++) {
+            double v = a == 2 ? 0 : 0.25 * ((a ? i / SIDE : i % SIDE) + 0.8 * (unit(&seed) - 0.5));
+            inp[3 * i + a] = (nearbyint(v / scale) * scale + offset) - offset;
+        }
+    size_t m = thinned_sample(inp, n, r, s);
+    wpd_grid surface = {0};
+    wpd_error err;
+    CHECK(wpd_grid_build(&surface, inp, NULL, n, r / 2, 2, &err) == 0);
+    size_t moved[2] = {0, 0};
+    for (int lattice = 0; lattice < 2; lattice++) {
+        double res = lattice ? scale : 0;
+        memcpy(t[lattice], s, 3 * m * sizeof *s);
+        wpd_smooth_input in = {t[lattice], m, NULL, NULL, NULL, 0, &surface, 0,
+                               WPD_SMOOTH_CENTROID, 13, 0, r, 2, {res, res, res}, 3};
+        wpd_smooth_stats st;
+        CHECK(wpd_smooth(&in, &st, &err) == 0);
+        for (size_t i = 0; i < 3 * m; i += 3)
+            moved[lattice] += memcmp(t[lattice] + i, s + i, 3 * sizeof *s) != 0;
+    }
+    double exact = local_cv(t[0], m), stored = local_cv(t[1], m);
+    CHECK_MSG(moved[0] > m / 8 && moved[1] >= moved[0] * 0.95 && stored <= exact * 1.02,
+              "%zu samples: %zu moved with exact output, %zu on the lattice; local CV %.4f, %.4f",
+              m, moved[0], moved[1], exact, stored);
+    wpd_grid_free(&surface);
+    free(inp);
+    free(s);
+    free(t[0]);
+    free(t[1]);
+}
