@@ -43,7 +43,8 @@ static void write_options(FILE *f, const wpd_run_info *r)
             (unsigned long long)r->target, p->lambda, p->voxel_frac,
             p->radius_method == WPD_RADIUS_PAPER ? "paper" : "multiscale", p->k, p->iterations,
             p->even_iterations, p->smooth ? "true" : "false", p->smooth_mode,
-            p->keep_on_surface ? "true" : "false", p->sharp ? "true" : "false", (unsigned long long)p->seed, r->mem_bytes);
+            p->keep_on_surface ? "true" : "false", p->sharp ? "true" : "false",
+            (unsigned long long)p->seed, r->mem_bytes);
 }
 
 static void write_phases(FILE *f, const wpd_run_info *r)

@@ -79,7 +79,8 @@ static void free_frames(frames *f)
     free(f->tries);
 }
 
-static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
+/* even: even-spacing steps will run, which need arrays of their own. */
+static int alloc_frames(frames *f, const wpd_smooth_input *in, int k, int even)
 {
     size_t m = in->n ? in->n : 1, all = in->n + in->nctx;
     f->n = in->n;
@@ -99,15 +100,16 @@ static int alloc_frames(frames *f, const wpd_smooth_input *in, int k)
     f->rho = malloc(m * sizeof *f->rho);
     f->plane = malloc(9 * m * sizeof *f->plane);
     f->fitted = calloc(m, 1);
+    int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
+             (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
+             f->fitted;
+    if (!ok || !even)
+        return ok ? 0 : -1;
     f->spacing = malloc(m * sizeof *f->spacing);
     f->nearest = malloc(m * sizeof *f->nearest);
     f->onto = malloc(m * WPD_EVEN_TRIES * sizeof *f->onto);
     f->tries = malloc(m);
-    int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
-             (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
-             f->fitted && f->spacing && f->nearest &&
-             f->onto && f->tries;
-    return ok ? 0 : -1;
+    return f->spacing && f->nearest && f->onto && f->tries ? 0 : -1;
 }
 
 /* A sample moves only where its neighbourhood is a surface: in vegetation
@@ -494,14 +496,13 @@ static int try_move(const wpd_smooth_input *in, frames *f, const guards *g,
         round_to_output(in->resolution, q, stored);
         if (memcmp(stored, q, sizeof stored))
             pulled = hold_on_surface(in->surface, in->resolution, q);
-    } else if (in->surface) {
-        for (int a = 0; a < 3; a++)
-            q[a] = near->p[a] + t * m[a];
-        project_on_surface(in->surface, f, o, q);
-        pulled = hold_on_surface(in->surface, in->resolution, q);
     } else {
         for (int a = 0; a < 3; a++)
             q[a] = near->p[a] + t * m[a];
+        if (in->surface) {
+            project_on_surface(in->surface, f, o, q);
+            pulled = hold_on_surface(in->surface, in->resolution, q);
+        }
     }
     const double *s0 = f->start + 3 * o;
     double w2 = (q[0] - s0[0]) * (q[0] - s0[0]) + (q[1] - s0[1]) * (q[1] - s0[1]) +
@@ -598,10 +599,6 @@ static size_t plan_moves(const wpd_smooth_input *in, frames *f, const double *pr
                          double step_max, int threads)
 {
     size_t open = 0;
-    if (f->even) {
-        plan_even_moves(in, f, prev, step_max, threads);
-        return 0;
-    }
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : open)
     for (size_t o = 0; o < f->n; o++) {
         double *m = f->plan + 3 * o;
@@ -629,10 +626,10 @@ static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const doubl
         return -1;
     g->spacing.grid = &g->grid;
     g->spacing.pos = prev;
-    double step = (f->even ? EVEN_REACH : STEP_MAX) * in->spacing;
-    size_t open = plan_moves(in, f, prev, step, threads);
-    if (!f->even)
-        st->open_cells = open;
+    if (f->even)
+        plan_even_moves(in, f, prev, EVEN_REACH * in->spacing, threads);
+    else
+        st->open_cells = plan_moves(in, f, prev, STEP_MAX * in->spacing, threads);
     if (g->cover.n && wpd_cover_update(&g->cover, &g->spacing, prev, threads, err))
         return -1;
     size_t shortened = 0, refused = 0;
@@ -669,9 +666,10 @@ static int even_step(int it, int voronoi, int even)
     return voronoi < even;
 }
 
-/* Everything before the iterations: frames, who stays, the coverage. */
-static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_stats *st,
-                   int threads, wpd_error *err)
+/* Everything before the iterations: frames, who stays, the coverage
+ * (even: even-spacing steps will run). */
+static int prepare(const wpd_smooth_input *in, frames *f, guards *g, int even,
+                   wpd_smooth_stats *st, int threads, wpd_error *err)
 {
     if (build_frames(in, f, &st->sharp_fixed, threads, err) < 0)
         return -1;
@@ -682,8 +680,7 @@ static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_
         st->isolated_fixed += f->still[o] == STILL_ISOLATED;
     }
     /* The guard's reach follows the longest step that will be taken. */
-    double step_max = in->surface && in->even_iterations > 0 ? fmax(STEP_MAX, EVEN_REACH)
-                                                             : STEP_MAX;
+    double step_max = even ? fmax(STEP_MAX, EVEN_REACH) : STEP_MAX;
     g->spacing = (wpd_spacing_guard){NULL, NULL, f->n, f->cap, f->half, in->spacing,
                                      STORE_MARGIN * in->spacing, step_max * in->spacing};
     if (in->surface && wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx,
@@ -707,11 +704,11 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     guards g = {0};
     double *scratch = malloc(3 * all * sizeof *scratch), *next = scratch;
     int rc = -1;
-    if (!scratch || alloc_frames(&f, in, k) < 0) {
+    if (!scratch || alloc_frames(&f, in, k, even > 0) < 0) {
         wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
         goto done;
     }
-    if (prepare(in, &f, &g, stats, threads, err))
+    if (prepare(in, &f, &g, even > 0, stats, threads, err))
         goto done;
     memcpy(next + 3 * n, f.pos + 3 * n, 3 * in->nctx * sizeof *next);
     double t1 = omp_get_wtime();

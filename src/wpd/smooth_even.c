@@ -27,22 +27,32 @@ typedef struct spacing_without {
     int kk;
 } spacing_without;
 
+/* Puts distance d (of point id) into the ascending list low[0..*got) that
+ * keeps the kk smallest seen (ids alongside, if given; equal distances in
+ * arrival order). */
+static void keep_smallest(double *low, uint32_t *ids, int *got, int kk, double d, uint32_t id)
+{
+    int at = *got < kk ? (*got)++ : kk;
+    if (at == kk && d >= low[kk - 1])
+        return;
+    if (at == kk)
+        at = kk - 1;
+    for (; at > 0 && low[at - 1] > d; at--) {
+        low[at] = low[at - 1];
+        if (ids)
+            ids[at] = ids[at - 1];
+    }
+    low[at] = d;
+    if (ids)
+        ids[at] = id;
+}
+
 /* The kk smallest of d[0..n) in ascending order into low[0..kk). */
 static int smallest(const double *d, int n, int kk, double *low)
 {
     int got = 0;
-    for (int i = 0; i < n; i++) {
-        int at = got < kk ? got++ : kk;
-        if (at == kk && d[i] >= low[kk - 1])
-            continue;
-        if (at == kk)
-            at = kk - 1;
-        while (at > 0 && low[at - 1] > d[i]) {
-            low[at] = low[at - 1];
-            at--;
-        }
-        low[at] = d[i];
-    }
+    for (int i = 0; i < n; i++)
+        keep_smallest(low, NULL, &got, kk, d[i], 0);
     return got;
 }
 
@@ -54,21 +64,9 @@ void wpd_even_spacings(const double *prev, size_t n, const uint32_t *nb, const u
         wpd_even_nearest *e = nearest + o;
         const uint32_t *l = nb + o * (size_t)k;
         int got = 0;
-        /* Insertion into the K + 1 nearest, ties by list order. */
-        for (int j = 0; j < cnt[o]; j++) {
-            double d = dist(prev + 3 * o, prev + 3 * (size_t)l[j]);
-            int at = got < WPD_EVEN_K + 1 ? got++ : WPD_EVEN_K + 1;
-            if (at == WPD_EVEN_K + 1 && d >= e->d[WPD_EVEN_K])
-                continue;
-            if (at == WPD_EVEN_K + 1)
-                at = WPD_EVEN_K;
-            for (; at > 0 && e->d[at - 1] > d; at--) {
-                e->d[at] = e->d[at - 1];
-                e->id[at] = e->id[at - 1];
-            }
-            e->d[at] = d;
-            e->id[at] = l[j];
-        }
+        for (int j = 0; j < cnt[o]; j++)
+            keep_smallest(e->d, e->id, &got, WPD_EVEN_K + 1,
+                          dist(prev + 3 * o, prev + 3 * (size_t)l[j]), l[j]);
         double sum = 0;
         int kk = got < WPD_EVEN_K ? got : WPD_EVEN_K;
         for (int j = 0; j < kk; j++)
