@@ -18,6 +18,7 @@
 #include "core/voronoi.h"
 #include "wpd/smooth_even.h"
 #include "wpd/smooth_guard.h"
+#include "wpd/smooth_surface.h"
 
 /* Why a sample keeps its place through every iteration (0: it may move). */
 enum {
@@ -51,8 +52,8 @@ typedef struct frames {
     uint8_t *fitted; /* [n] plane[] is valid */
     double *spacing; /* [n] local spacing at the previous positions (even steps) */
     wpd_even_nearest *nearest; /* [n] the neighbours that define it */
-    uint32_t *onto;  /* [n * WPD_EVEN_TRIES] input points (surface slots) an even step
-                        may go onto, best first */
+    double *ends;    /* [3 * n * WPD_EVEN_TRIES] input points an even step may go
+                        onto, best first, as the output stores them */
     uint8_t *tries;  /* [n] how many */
     int even;        /* this iteration is an even-spacing step (smooth_even.h) */
 } frames;
@@ -75,7 +76,7 @@ static void free_frames(frames *f)
     free(f->fitted);
     free(f->spacing);
     free(f->nearest);
-    free(f->onto);
+    free(f->ends);
     free(f->tries);
 }
 
@@ -107,9 +108,9 @@ static int alloc_frames(frames *f, const wpd_smooth_input *in, int k, int even)
         return ok ? 0 : -1;
     f->spacing = malloc(m * sizeof *f->spacing);
     f->nearest = malloc(m * sizeof *f->nearest);
-    f->onto = malloc(m * WPD_EVEN_TRIES * sizeof *f->onto);
+    f->ends = malloc(3 * m * WPD_EVEN_TRIES * sizeof *f->ends);
     f->tries = malloc(m);
-    return f->spacing && f->nearest && f->onto && f->tries ? 0 : -1;
+    return f->spacing && f->nearest && f->ends && f->tries ? 0 : -1;
 }
 
 /* A sample moves only where its neighbourhood is a surface: in vegetation
@@ -325,123 +326,12 @@ static int cell_move(const wpd_smooth_input *in, const frames *f, const double *
     return ok;
 }
 
-/* The guarantee behind keeping samples on the surface: no sample ends
- * farther from the input than the input's own local spacing there. The
- * plane projection already holds nearly every sample to a fraction of it,
- * but a plane fit is not the surface in vegetation, at thin objects and
- * at corners; a sample whose nearest input point q is farther than
- * spacing(q) (the mean distance from q to its SPACING_K nearest input
- * neighbours, the definition `wpd metrics` reports drift against) is
- * pulled straight towards q until it is that far (hold_on_surface, on
- * every position a move tries). */
-enum { SPACING_K = 6 };
-
-/* Input point nearest to p (its slot in *near) and, in *spacing, the
- * input's local spacing there - or, where that settles the test the caller
- * makes (distance <= spacing), a lower bound of it found on the way: with
- * d0 the distance from p to its nearest input point q and d1..d6 to the
- * next six, each of q's six nearest neighbours x has |q x| >= |p x| - d0,
- * and the six nearest to p other than q are no farther from p than they
- * are, so spacing(q) >= mean(d1..d6) - d0. When d0 is below that bound
- * (the margin covers rounding) one query suffices; otherwise q's own
- * neighbours give the spacing. Returns the distance from p, or -1 if the
- * grid is empty. */
-static double nearest_with_spacing(const wpd_grid *surface, const double p[3], uint32_t *near,
-                                   double *spacing)
-{
-    uint32_t nb[SPACING_K + 1];
-    double d2[SPACING_K + 1];
-    *spacing = 0;
-    int got = wpd_knn_slots(surface, p, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
-    if (got < 1)
-        return -1;
-    *near = nb[0];
-    double d0 = sqrt(d2[0]);
-    if (got == SPACING_K + 1) {
-        double mean = 0;
-        for (int j = 1; j <= SPACING_K; j++)
-            mean += sqrt(d2[j]);
-        double bound = (mean / SPACING_K - d0) * (1 - 1e-9);
-        if (d0 <= bound) {
-            *spacing = bound;
-            return d0;
-        }
-    }
-    const double *q = surface->xyz + 3 * (size_t)*near;
-    got = wpd_knn_slots(surface, q, SPACING_K, surface->id[*near], INFINITY, 0, nb, d2);
-    double sum = 0;
-    for (int j = 0; j < got; j++)
-        sum += sqrt(d2[j]);
-    *spacing = got ? sum / got : 0;
-    return d0;
-}
-
-/* p rounded to the output's lattice (multiples of res per axis in the
- * block frame, which starts at an input point); unchanged where res is 0. */
-static void round_to_output(const double res[3], const double p[3], double out[3])
-{
-    for (int a = 0; a < 3; a++)
-        out[a] = res[a] > 0 ? nearbyint(p[a] / res[a]) * res[a] : p[a];
-}
-
-/* A sample on no scanned surface at the sampling's scale - an isolated
- * return, a noise spike, a lone wire point - has input neighbours sparser
- * than the samples around its starting position: the mean distance to its
- * 6 nearest input points is above ISOLATED_SPACING r, about the mean
- * distance from a Poisson sample at r to its 6 nearest samples (1.30-1.60 r
- * measured on NC Raleigh, CSite1, lato270 and lone-star tile 3 at 10 K).
- * Its tangent plane means nothing and its Voronoi cell is as large as the
- * gap around it: it keeps its starting position. (The bound was r until
- * 2026-11-27, which held every sample still where n is half the input, the
- * input then being about as sparse as r; and half of r before the coverage
- * guard kept such a sample from opening a hole: at 10 % of the input the
- * input spacing is about 0.45 r on an even surface, and half of r kept
- * 27-40 % of the samples of lato270 and lone-star_tile1 still.) */
-#define ISOLATED_SPACING 1.5
-
-static int off_surface(const wpd_grid *surface, const double start[3], double spacing)
-{
-    /* A sample starts on an input point: its 7 nearest are that point and
-     * the 6 that define the local spacing there. */
-    uint32_t nb[SPACING_K + 1];
-    double d2[SPACING_K + 1], local = 0;
-    int got = wpd_knn_slots(surface, start, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
-    for (int j = 1; j < got; j++)
-        local += sqrt(d2[j]);
-    return got > 1 && local / (got - 1) > ISOLATED_SPACING * spacing;
-}
-
-/* Keeps a moved sample p within the input's local spacing of the input,
- * judged as the output will store it, and leaves it rounded to the
- * output's lattice. Pulling p changes its nearest input point, whose
- * spacing may be smaller: a few rounds, then onto the input point itself
- * (exact in any output: it is an input point). Returns 1 if p was pulled. */
-static int hold_on_surface(const wpd_grid *surface, const double res[3], double p[3])
-{
-    for (int round = 0;; round++) {
-        uint32_t near;
-        double stored[3], spacing = 0;
-        round_to_output(res, p, stored);
-        double d = nearest_with_spacing(surface, stored, &near, &spacing);
-        if (d <= spacing) {
-            memcpy(p, stored, sizeof stored);
-            return round > 0;
-        }
-        const double *q = surface->xyz + 3 * (size_t)near;
-        double f = round < 4 ? 0.99 * spacing / d : 0;
-        for (int a = 0; a < 3; a++)
-            p[a] = q[a] + (stored[a] - q[a]) * f;
-        if (f == 0)
-            return 1;
-    }
-}
-
-/* Samples on no surface at their start keep it (see off_surface). */
+/* Samples on no surface at their start keep it (see wpd_off_surface). */
 static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
 {
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
     for (size_t o = 0; o < f->n; o++)
-        if (f->still[o] == FREE && off_surface(in->surface, f->pos + 3 * o, in->spacing))
+        if (f->still[o] == FREE && wpd_off_surface(in->surface, f->pos + 3 * o, in->spacing))
             f->still[o] = STILL_ISOLATED;
 }
 
@@ -468,7 +358,7 @@ static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
 /* A float32 PLY stores each coordinate to within r/2000 (cmd_resample
  * writes doubles where the float spacing is coarser than r/1000), which can
  * close a pair by up to 0.0017 r after the guard has judged it; LAS output
- * is judged already rounded (hold_on_surface). Units of r. */
+ * is judged already rounded (wpd_hold_on_surface). Units of r. */
 #define STORE_MARGIN 0.002
 
 typedef struct guards {
@@ -480,28 +370,21 @@ typedef struct guards {
 enum { MOVE_FULL, MOVE_SHORTENED, MOVE_REFUSED };
 
 /* Tries p + t m, put back on the surface, into q - or, for an even step,
- * the input point `onto` (then t and m are not read): 1 if the guards
- * allow it. */
+ * the point `end` (then t and m are not read): 1 if the guards allow it. */
 static int try_move(const wpd_smooth_input *in, frames *f, const guards *g,
                     const wpd_spacing_near *near, const double m[3], double t,
-                    const double *onto, double q[3])
+                    const double *end, double q[3])
 {
     size_t o = near->o;
     int pulled = 0;
-    if (onto) {
-        /* Exactly the input point, which is on the surface: held as below
-         * only where the output's lattice would move it. */
-        double stored[3];
-        memcpy(q, onto, 3 * sizeof *q);
-        round_to_output(in->resolution, q, stored);
-        if (memcmp(stored, q, sizeof stored))
-            pulled = hold_on_surface(in->surface, in->resolution, q);
+    if (end) {
+        memcpy(q, end, 3 * sizeof *q); /* an input point, as stored: on the surface */
     } else {
         for (int a = 0; a < 3; a++)
             q[a] = near->p[a] + t * m[a];
         if (in->surface) {
             project_on_surface(in->surface, f, o, q);
-            pulled = hold_on_surface(in->surface, in->resolution, q);
+            pulled = wpd_hold_on_surface(in->surface, in->resolution, q);
         }
     }
     const double *s0 = f->start + 3 * o;
@@ -552,7 +435,7 @@ static int guarded_even_move(const wpd_smooth_input *in, frames *f, const guards
     wpd_spacing_near near;
     wpd_spacing_gather(&g->spacing, o, p, &near);
     for (int c = 0; c < f->tries[o]; c++) {
-        const double *q = in->surface->xyz + 3 * (size_t)f->onto[o * WPD_EVEN_TRIES + c];
+        const double *q = f->ends + 3 * (o * WPD_EVEN_TRIES + c);
         if (try_move(in, f, g, &near, NULL, 0, q, out))
             return c ? MOVE_SHORTENED : MOVE_FULL;
     }
@@ -580,13 +463,19 @@ static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double 
         if (f->half && f->half[o])
             continue;
         wpd_even_limits lim = {step_max, floor, f->start + 3 * o, WANDER_MAX * in->spacing};
-        uint32_t *onto = f->onto + o * WPD_EVEN_TRIES;
-        f->tries[o] = (uint8_t)wpd_even_candidates(&v, in->surface, o, &lim, onto);
-        /* The cap covers every point it may try, as the output will
-         * store it (an input point may lie an ulp off the lattice). */
-        for (int c = 0; c < f->tries[o]; c++) {
-            double q[3];
-            round_to_output(in->resolution, in->surface->xyz + 3 * (size_t)onto[c], q);
+        uint32_t onto[WPD_EVEN_TRIES];
+        int tries = wpd_even_candidates(&v, in->surface, o, &lim, onto);
+        /* Each point as the output will store it, and the cap covers them
+         * all. An input point read from the output's lattice lies on it
+         * but for the floating error of its coordinates (relative to the
+         * minimum corner); one that does not is left out. */
+        for (int c = 0; c < tries; c++) {
+            const double *x = in->surface->xyz + 3 * (size_t)onto[c];
+            double *q = f->ends + 3 * (o * WPD_EVEN_TRIES + f->tries[o]);
+            wpd_round_to_output(in->resolution, x, q);
+            if (!wpd_on_lattice(in->resolution, x, q))
+                continue;
+            f->tries[o]++;
             double d[3] = {q[0] - prev[3 * o], q[1] - prev[3 * o + 1], q[2] - prev[3 * o + 2]};
             f->cap[o] = fmax(f->cap[o], sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
         }
@@ -741,53 +630,4 @@ done:
     wpd_grid_free(&g.grid);
     wpd_cover_free(&g.cover);
     return rc;
-}
-
-void wpd_measure_drift(const wpd_grid *surface, const double *xyz, size_t n, int k,
-                       int threads, wpd_drift *out)
-{
-    memset(out, 0, sizeof *out);
-    out->n = n;
-    if (n == 0 || !surface || surface->n == 0)
-        return;
-    if (threads <= 0)
-        threads = omp_get_max_threads();
-    k = wpd_knn_clamp_k(k);
-    double *r_near = malloc(n * sizeof *r_near), *r_plane = malloc(n * sizeof *r_plane);
-    if (!r_near || !r_plane) {
-        free(r_near);
-        free(r_plane);
-        return;
-    }
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
-    for (size_t i = 0; i < n; i++) {
-        const double *p = xyz + 3 * i;
-        uint32_t near[WPD_KNN_MAX];
-        double d2[WPD_KNN_MAX];
-        int got = wpd_knn_slots(surface, p, k, WPD_NO_SELF, INFINITY, 0, near, d2);
-        double s = sqrt(M_PI * d2[got - 1] / got);
-        double pts[3 * WPD_KNN_MAX];
-        for (int j = 0; j < got; j++)
-            memcpy(pts + 3 * j, surface->xyz + 3 * (size_t)near[j], 3 * sizeof(double));
-        wpd_plane pl;
-        wpd_plane_fit(pts, NULL, got, &pl);
-        double dp = 0;
-        for (int a = 0; a < 3; a++)
-            dp += (p[a] - pl.centroid[a]) * pl.normal[a];
-        r_near[i] = s > 0 ? sqrt(d2[0]) / s : 0;
-        r_plane[i] = s > 0 && got >= 3 ? fabs(dp) / s : 0;
-    }
-    size_t beyond = 0;
-    for (size_t i = 0; i < n; i++) {
-        out->mean_nearest += r_near[i];
-        out->mean_plane += r_plane[i];
-        out->max_nearest = fmax(out->max_nearest, r_near[i]);
-        out->max_plane = fmax(out->max_plane, r_plane[i]);
-        beyond += r_near[i] > 1;
-    }
-    out->mean_nearest /= (double)n;
-    out->mean_plane /= (double)n;
-    out->frac_beyond = (double)beyond / (double)n;
-    free(r_near);
-    free(r_plane);
 }

@@ -30,7 +30,7 @@ typedef struct spacing_without {
 /* Puts distance d (of point id) into the ascending list low[0..*got) that
  * keeps the kk smallest seen (ids alongside, if given; equal distances in
  * arrival order). */
-static void keep_smallest(double *low, uint32_t *ids, int *got, int kk, double d, uint32_t id)
+static inline void keep_smallest(double *low, uint32_t *ids, int *got, int kk, double d, uint32_t id)
 {
     int at = *got < kk ? (*got)++ : kk;
     if (at == kk && d >= low[kk - 1])
@@ -100,31 +100,43 @@ static spacing_without without(const wpd_even_view *v, size_t s, size_t o)
     return w;
 }
 
-/* The sum of squared deviations from t with sample o at q: o's own spacing
- * among its listed neighbours, and each sample neighbour's. Returns
- * INFINITY where q is closer than floor to a listed neighbour, and some
- * value >= bound as soon as the partial sum reaches bound (its terms are
- * not negative, so the whole sum would too). */
-static double energy(const wpd_even_view *v, size_t o, const double q[3], double floor,
-                     const spacing_without *w, const uint32_t *who, int nw, double t,
-                     double bound)
+/* The neighbours of the sample whose step is planned, gathered once: their
+ * coordinates side by side, and for each neighbour that is a sample (not a
+ * context sample) its place in the list and its spacing parts without the
+ * sample. */
+typedef struct step_view {
+    int n;                                  /* listed neighbours */
+    double x[WPD_KNN_MAX], y[WPD_KNN_MAX], z[WPD_KNN_MAX];
+    int nw;                                 /* of them samples */
+    uint8_t at[WPD_KNN_MAX];                /* their places in the list */
+    spacing_without w[WPD_KNN_MAX];
+    double t;                               /* the mean spacing to aim at */
+} step_view;
+
+/* The sum of squared deviations from t with the sample at q: its own
+ * spacing among its listed neighbours, and each sample neighbour's.
+ * Returns INFINITY where q is closer than floor to a listed neighbour, and
+ * some value >= bound as soon as the partial sum reaches bound (its terms
+ * are not negative, so the whole sum would too). */
+static double energy(const step_view *sv, const double q[3], double floor, double bound)
 {
-    double d[WPD_KNN_MAX], low[WPD_EVEN_K];
-    const uint32_t *l = v->nb + o * (size_t)v->k;
-    for (int j = 0; j < v->cnt[o]; j++) {
-        d[j] = dist(q, v->prev + 3 * (size_t)l[j]);
-        if (d[j] < floor)
-            return INFINITY;
+    double d[WPD_KNN_MAX], low[WPD_EVEN_K], nearest = INFINITY;
+    for (int j = 0; j < sv->n; j++) {
+        double dx = q[0] - sv->x[j], dy = q[1] - sv->y[j], dz = q[2] - sv->z[j];
+        d[j] = sqrt(dx * dx + dy * dy + dz * dz);
+        nearest = d[j] < nearest ? d[j] : nearest;
     }
-    int got = smallest(d, v->cnt[o], WPD_EVEN_K, low);
+    if (nearest < floor)
+        return INFINITY;
+    int got = smallest(d, sv->n, WPD_EVEN_K, low);
     double own = 0;
     for (int j = 0; j < got; j++)
         own += low[j];
-    own = got ? own / got - t : 0;
+    own = got ? own / got - sv->t : 0;
     double e = own * own;
-    for (int s = 0; s < nw && e < bound; s++) {
-        double ds = dist(q, v->prev + 3 * (size_t)who[s]);
-        double ms = (w[s].sum + fmin(ds, w[s].next)) / w[s].kk - t;
+    for (int s = 0; s < sv->nw && e < bound; s++) {
+        const spacing_without *w = sv->w + s;
+        double ms = (w->sum + fmin(d[sv->at[s]], w->next)) / w->kk - sv->t;
         e += ms * ms;
     }
     return e;
@@ -140,20 +152,23 @@ int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t 
                             cand, NULL);
     if (got == 0)
         return 0;
-    spacing_without w[WPD_KNN_MAX];
-    uint32_t who[WPD_KNN_MAX];
-    int nw = 0;
-    double t = v->spacing[o];
-    for (int j = 0; j < v->cnt[o]; j++)
+    step_view sv;
+    sv.n = v->cnt[o];
+    sv.nw = 0;
+    sv.t = v->spacing[o];
+    for (int j = 0; j < sv.n; j++) {
+        const double *x = v->prev + 3 * (size_t)l[j];
+        sv.x[j] = x[0], sv.y[j] = x[1], sv.z[j] = x[2];
         if (l[j] < v->n) {
-            who[nw] = l[j];
-            w[nw++] = without(v, l[j], o);
-            t += v->spacing[l[j]];
+            sv.at[sv.nw] = (uint8_t)j;
+            sv.w[sv.nw++] = without(v, l[j], o);
+            sv.t += v->spacing[l[j]];
         }
-    t /= nw + 1;
+    }
+    sv.t /= sv.nw + 1;
     /* Staying is judged by the same sum, without the floor (the sample
      * may already be closer than it: the guards keep what is). */
-    double stay = energy(v, o, p, 0, w, who, nw, t, INFINITY) * (1 - 1e-12);
+    double stay = energy(&sv, p, 0, INFINITY) * (1 - 1e-12);
     double best[WPD_EVEN_TRIES];
     int kept = 0;
     for (int c = 0; c < got; c++) {
@@ -162,7 +177,7 @@ int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t 
             continue;
         /* A point must beat staying, and the worst kept once 4 are. */
         double bound = kept == WPD_EVEN_TRIES ? fmin(stay, best[kept - 1]) : stay;
-        double e = energy(v, o, q, lim->floor, w, who, nw, t, bound);
+        double e = energy(&sv, q, lim->floor, bound);
         if (!(e < bound))
             continue;
         /* Insertion after every equal sum: candidates come nearest first. */
