@@ -365,6 +365,7 @@ typedef struct guards {
     wpd_spacing_guard spacing;
     wpd_grid grid;          /* over the previous positions, rebuilt each iteration */
     wpd_cover cover;        /* empty (n = 0) without the input points */
+    wpd_step_ends ends;     /* where an even step's samples may go */
 } guards;
 
 enum { MOVE_FULL, MOVE_SHORTENED, MOVE_REFUSED };
@@ -519,6 +520,8 @@ static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const doubl
         plan_even_moves(in, f, prev, EVEN_REACH * in->spacing, threads);
     else
         st->open_cells = plan_moves(in, f, prev, STEP_MAX * in->spacing, threads);
+    /* An even step's samples end where they are or on one of their tries. */
+    g->spacing.ends = f->even ? &g->ends : NULL;
     if (g->cover.n && wpd_cover_update(&g->cover, &g->spacing, prev, threads, err))
         return -1;
     size_t shortened = 0, refused = 0;
@@ -571,7 +574,8 @@ static int prepare(const wpd_smooth_input *in, frames *f, guards *g, int even,
     /* The guard's reach follows the longest step that will be taken. */
     double step_max = even ? fmax(STEP_MAX, EVEN_REACH) : STEP_MAX;
     g->spacing = (wpd_spacing_guard){NULL, NULL, f->n, f->cap, f->half, in->spacing,
-                                     STORE_MARGIN * in->spacing, step_max * in->spacing};
+                                     STORE_MARGIN * in->spacing, step_max * in->spacing, NULL};
+    g->ends = (wpd_step_ends){f->ends, f->tries, WPD_EVEN_TRIES};
     if (in->surface && wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx,
                                        in->spacing, threads, err))
         return -1;

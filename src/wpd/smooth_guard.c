@@ -264,9 +264,30 @@ void wpd_cover_free(wpd_cover *c)
     memset(c, 0, sizeof *c);
 }
 
+/* Whether sample i, at distance d from input point x (bound b), keeps x
+ * within b wherever it goes this iteration: its cap says so, or each of
+ * its possible ends does (where the guard has them). */
+static int trusted(const wpd_cover *c, const wpd_spacing_guard *g, uint32_t i, double d,
+                   const double x[3], double b)
+{
+    const wpd_step_ends *ends = g->ends;
+    double cap = i < c->n ? g->cap[i] : 0; /* context samples stay */
+    if (d + cap <= b)
+        return 1;
+    if (!ends || i >= c->n || d > b)
+        return 0;
+    const double *e = ends->xyz + 3 * (size_t)i * (size_t)ends->per;
+    for (int j = 0; j < ends->count[i]; j++, e += 3) {
+        double dx = e[0] - x[0], dy = e[1] - x[1], dz = e[2] - x[2];
+        if (dx * dx + dy * dy + dz * dz > b * b) /* as wpd_cover_holds judges it */
+            return 0;
+    }
+    return 1;
+}
+
 /* Whether input point s needs a keeper this iteration: its owner, or the
- * nearer of its two nearest samples, may be trusted to stay within its
- * bound when its distance plus its cap is within it. Updates owner[s]. */
+ * nearer of its two nearest samples, may be trusted to keep it within its
+ * bound (trusted). Updates owner[s]. */
 static void look_after(wpd_cover *c, const wpd_spacing_guard *g, const double *pos, size_t s)
 {
     const double *x = c->surface->xyz + 3 * s;
@@ -276,20 +297,17 @@ static void look_after(wpd_cover *c, const wpd_spacing_guard *g, const double *p
         return;
     const double *p = pos + 3 * (size_t)i;
     double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
-    double cap = i < c->n ? g->cap[i] : 0; /* context samples stay */
     c->owner[s] = i;
-    if (sqrt(dx * dx + dy * dy + dz * dz) + cap <= b)
+    if (trusted(c, g, i, sqrt(dx * dx + dy * dy + dz * dz), x, b))
         return;
     uint32_t nb[2];
     double d2[2];
     int got = wpd_knn(g->grid, x, 2, WPD_NO_SELF, INFINITY, b, nb, d2);
-    for (int j = 0; j < got; j++) {
-        cap = nb[j] < c->n ? g->cap[nb[j]] : 0;
-        if (sqrt(d2[j]) + cap <= b) {
+    for (int j = 0; j < got; j++)
+        if (trusted(c, g, nb[j], sqrt(d2[j]), x, b)) {
             c->owner[s] = nb[j];
             return;
         }
-    }
     /* The nearest is within the bound (the invariant) and keeps it; a
      * context sample, which stays, only fails the test above by rounding. */
     if (got > 0)

@@ -29,7 +29,9 @@
  * most cap_j, wherever it goes (context samples and samples that stay have
  * cap 0). Otherwise x is put in the care of its nearest sample, which is
  * within B(x) (the invariant), and that sample only moves where it keeps
- * x within B(x). The test involves one sample's own move, so it holds in a
+ * x within B(x). (Where a sample's possible ends are a few known points, as
+ * in an even-spacing step, |x e| <= B(x) for each of them and for p_j
+ * serves as well as the cap's test.) The test involves one sample's own move, so it holds in a
  * Jacobi step whatever the others do. Hence after smoothing the Hausdorff
  * distance from the input to the samples is at most max(tau, what it was
  * before), and a point nearer than tau to the samples stays within tau.
@@ -54,6 +56,15 @@
  * section 4). */
 #define WPD_SMOOTH_KEEP 0.82
 
+/* Where each sample may end this iteration when that is a short list of
+ * points besides where it is (an even-spacing step: the input points it
+ * may go onto, as the output stores them). */
+typedef struct wpd_step_ends {
+    const double *xyz;     /* sample o's ends: xyz[3 * (o * per + j) ..], j < count[o] */
+    const uint8_t *count;  /* [n] */
+    int per;
+} wpd_step_ends;
+
 typedef struct wpd_spacing_guard {
     const wpd_grid *grid;   /* over pos */
     const double *pos;      /* current positions: the n samples (order space), then
@@ -65,6 +76,8 @@ typedef struct wpd_spacing_guard {
     double r;               /* Poisson radius */
     double margin;          /* added to every floor: the output's rounding */
     double step_max;        /* longest step of one iteration */
+    const wpd_step_ends *ends; /* each sample's possible ends, or NULL: anywhere
+                                  within its cap (read by the coverage only) */
 } wpd_spacing_guard;
 
 /* The samples that matter to one sample's step, from its position p. */
@@ -111,8 +124,9 @@ int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, s
 void wpd_cover_free(wpd_cover *c);
 
 /* Before an iteration's moves: which sample keeps which input point, from
- * the positions pos (n samples, then context samples), a grid over them and
- * every sample's cap (guard->cap). Returns 0, or -1 with err set. */
+ * the positions pos (n samples, then context samples), a grid over them,
+ * every sample's cap (guard->cap) and, where given, its possible ends
+ * (guard->ends). Returns 0, or -1 with err set. */
 int wpd_cover_update(wpd_cover *c, const wpd_spacing_guard *guard, const double *pos,
                      int threads, wpd_error *err);
 

@@ -222,3 +222,38 @@ TEST(smooth_leaves_a_volumetric_blob_still)
     free(t);
     cloud_free(&c);
 }
+
+/* Whether input point 0 needs a keeper this iteration when sample 0, 0.5
+ * from it (bound 1), plans a step of up to 0.8 onto one of `count` ends. */
+static int kept_with_ends(const double *ends, int count, int *failures_)
+{
+    wpd_error err;
+    double x[3] = {0, 0, 0}, pos[6] = {0.5, 0, 0, 5, 5, 0}, cap[2] = {0.8, 0};
+    wpd_grid surface = {0}, samples = {0};
+    wpd_cover cover;
+    CHECK(wpd_grid_build(&surface, x, NULL, 1, 1, 1, &err) == 0);
+    CHECK(wpd_grid_build(&samples, pos, NULL, 2, 1, 1, &err) == 0);
+    CHECK(wpd_cover_init(&cover, &surface, pos, 2, 0, 1, 1, &err) == 0);
+    uint8_t counts[2] = {(uint8_t)count, 0};
+    wpd_step_ends e = {ends, counts, 4};
+    wpd_spacing_guard g = {&samples, pos, 2, cap, NULL, 1, 0, 0.8, count ? &e : NULL};
+    CHECK(wpd_cover_update(&cover, &g, pos, 1, &err) == 0);
+    int kept = (cover.owner[0] & WPD_COVER_KEEP) != 0;
+    CHECK(kept == (cover.first[1] - cover.first[0] == 1));
+    wpd_cover_free(&cover);
+    wpd_grid_free(&surface);
+    wpd_grid_free(&samples);
+    return kept;
+}
+
+TEST(cover_trusts_a_sample_whose_every_end_keeps_the_point)
+{
+    /* The cap says the sample may end 1.3 from the point, past its bound;
+     * its ends (an even step's tries) say where it may really go. */
+    double near[12] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 0.9};
+    double far[12] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 1.1};
+    CHECK_MSG(kept_with_ends(near, 0, failures_), "trusted though it may go anywhere within its cap");
+    CHECK_MSG(!kept_with_ends(near, 4, failures_), "not trusted though every end keeps the point");
+    CHECK_MSG(kept_with_ends(far, 4, failures_), "trusted though its last end is 1.1 from the point");
+    CHECK_MSG(!kept_with_ends(far, 3, failures_), "the ends past count were read");
+}
