@@ -88,10 +88,16 @@ static spacing_without without(const wpd_even_view *v, size_t s, size_t o)
     for (int j = 0; j < WPD_EVEN_K + 1 && e->id[j] != UINT32_MAX; j++)
         if (e->id[j] != o)
             low[m++] = e->d[j];
-    int total = v->cnt[s]; /* listed neighbours other than o */
-    for (int j = 0; j < v->cnt[s]; j++)
-        total -= v->nb[s * (size_t)v->k + j] == o;
-    int kk = total + 1 < WPD_EVEN_K ? total + 1 : WPD_EVEN_K;
+    /* With o at its new place s has total + 1 listed neighbours, total
+     * those other than o; only a list shorter than WPD_EVEN_K needs the
+     * count. */
+    int kk = WPD_EVEN_K;
+    if (v->cnt[s] < WPD_EVEN_K) {
+        int total = v->cnt[s];
+        for (int j = 0; j < v->cnt[s]; j++)
+            total -= v->nb[s * (size_t)v->k + j] == o;
+        kk = total + 1 < WPD_EVEN_K ? total + 1 : WPD_EVEN_K;
+    }
     spacing_without w = {0, INFINITY, kk};
     for (int j = 0; j < kk - 1 && j < m; j++)
         w.sum += low[j];
@@ -120,23 +126,26 @@ typedef struct step_view {
  * are not negative, so the whole sum would too). */
 static double energy(const step_view *sv, const double q[3], double floor, double bound)
 {
-    double d[WPD_KNN_MAX], low[WPD_EVEN_K], nearest = INFINITY;
+    /* Squared distances first: the square root is taken of the nearest,
+     * of the WPD_EVEN_K that make the spacing and of those the
+     * neighbours' terms read (it is monotonic, so the same values). */
+    double d2[WPD_KNN_MAX], low[WPD_EVEN_K], nearest = INFINITY;
     for (int j = 0; j < sv->n; j++) {
         double dx = q[0] - sv->x[j], dy = q[1] - sv->y[j], dz = q[2] - sv->z[j];
-        d[j] = sqrt(dx * dx + dy * dy + dz * dz);
-        nearest = d[j] < nearest ? d[j] : nearest;
+        d2[j] = dx * dx + dy * dy + dz * dz;
+        nearest = d2[j] < nearest ? d2[j] : nearest;
     }
-    if (nearest < floor)
+    if (sqrt(nearest) < floor)
         return INFINITY;
-    int got = smallest(d, sv->n, WPD_EVEN_K, low);
+    int got = smallest(d2, sv->n, WPD_EVEN_K, low);
     double own = 0;
     for (int j = 0; j < got; j++)
-        own += low[j];
+        own += sqrt(low[j]);
     own = got ? own / got - sv->t : 0;
     double e = own * own;
     for (int s = 0; s < sv->nw && e < bound; s++) {
         const spacing_without *w = sv->w + s;
-        double ms = (w->sum + fmin(d[sv->at[s]], w->next)) / w->kk - sv->t;
+        double ms = (w->sum + fmin(sqrt(d2[sv->at[s]]), w->next)) / w->kk - sv->t;
         e += ms * ms;
     }
     return e;
