@@ -469,16 +469,19 @@ static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double 
         /* Each point as the output will store it, and the cap covers them
          * all. An input point read from the output's lattice lies on it
          * but for the floating error of its coordinates (relative to the
-         * minimum corner); one that does not is left out. */
+         * minimum corner); one that does not, or that rounding takes past
+         * the step's reach (which the spacing guard relies on), is left
+         * out. */
         for (int c = 0; c < tries; c++) {
             const double *x = in->surface->xyz + 3 * (size_t)onto[c];
             double *q = f->ends + 3 * (o * WPD_EVEN_TRIES + f->tries[o]);
             wpd_round_to_output(in->resolution, x, q);
-            if (!wpd_on_lattice(in->resolution, x, q))
+            double d[3] = {q[0] - prev[3 * o], q[1] - prev[3 * o + 1], q[2] - prev[3 * o + 2]};
+            double step = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if (!wpd_on_lattice(in->resolution, x, q) || step > step_max)
                 continue;
             f->tries[o]++;
-            double d[3] = {q[0] - prev[3 * o], q[1] - prev[3 * o + 1], q[2] - prev[3 * o + 2]};
-            f->cap[o] = fmax(f->cap[o], sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+            f->cap[o] = fmax(f->cap[o], step);
         }
     }
 }
@@ -511,15 +514,17 @@ static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const doubl
                    double *next, int threads, wpd_smooth_stats *st, wpd_error *err)
 {
     size_t n = f->n;
+    /* The spacing guard's reach follows this iteration's longest step. */
+    g->spacing.step_max = (f->even ? EVEN_REACH : STEP_MAX) * in->spacing;
     if (wpd_grid_build(&g->grid, prev, NULL, n + f->nctx, wpd_spacing_reach(&g->spacing),
                        threads, err))
         return -1;
     g->spacing.grid = &g->grid;
     g->spacing.pos = prev;
     if (f->even)
-        plan_even_moves(in, f, prev, EVEN_REACH * in->spacing, threads);
+        plan_even_moves(in, f, prev, g->spacing.step_max, threads);
     else
-        st->open_cells = plan_moves(in, f, prev, STEP_MAX * in->spacing, threads);
+        st->open_cells = plan_moves(in, f, prev, g->spacing.step_max, threads);
     /* An even step's samples end where they are or on one of their tries. */
     g->spacing.ends = f->even ? &g->ends : NULL;
     if (g->cover.n && wpd_cover_update(&g->cover, &g->spacing, prev, threads, err))
@@ -558,10 +563,9 @@ static int even_step(int it, int voronoi, int even)
     return voronoi < even;
 }
 
-/* Everything before the iterations: frames, who stays, the coverage
- * (even: even-spacing steps will run). */
-static int prepare(const wpd_smooth_input *in, frames *f, guards *g, int even,
-                   wpd_smooth_stats *st, int threads, wpd_error *err)
+/* Everything before the iterations: frames, who stays, the coverage. */
+static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_stats *st,
+                   int threads, wpd_error *err)
 {
     if (build_frames(in, f, &st->sharp_fixed, threads, err) < 0)
         return -1;
@@ -571,10 +575,8 @@ static int prepare(const wpd_smooth_input *in, frames *f, guards *g, int even,
         st->volume_fixed += f->still[o] == STILL_VOLUME;
         st->isolated_fixed += f->still[o] == STILL_ISOLATED;
     }
-    /* The guard's reach follows the longest step that will be taken. */
-    double step_max = even ? fmax(STEP_MAX, EVEN_REACH) : STEP_MAX;
     g->spacing = (wpd_spacing_guard){NULL, NULL, f->n, f->cap, f->half, in->spacing,
-                                     STORE_MARGIN * in->spacing, step_max * in->spacing, NULL};
+                                     STORE_MARGIN * in->spacing, 0, NULL}; /* step_max: iterate */
     g->ends = (wpd_step_ends){f->ends, f->tries, WPD_EVEN_TRIES};
     if (in->surface && wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx,
                                        in->spacing, threads, err))
@@ -601,7 +603,7 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
         wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);
         goto done;
     }
-    if (prepare(in, &f, &g, even > 0, stats, threads, err))
+    if (prepare(in, &f, &g, stats, threads, err))
         goto done;
     memcpy(next + 3 * n, f.pos + 3 * n, 3 * in->nctx * sizeof *next);
     double t1 = omp_get_wtime();
