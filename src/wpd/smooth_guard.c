@@ -290,14 +290,20 @@ static int trusted(const wpd_cover *c, const wpd_spacing_guard *g, uint32_t i, d
  * bound (trusted). Updates owner[s]. */
 static void look_after(wpd_cover *c, const wpd_spacing_guard *g, const double *pos, size_t s)
 {
-    const double *x = c->surface->xyz + 3 * s;
-    double b = c->bound[s];
     uint32_t i = c->owner[s] & ~WPD_COVER_KEEP;
     if (i == NO_OWNER)
         return;
+    c->owner[s] = i;
+    /* An owner that stays (cap 0, or a context sample) is trusted without
+     * a look at the point: it lies within B(x) of x (the invariant). Most
+     * samples stay in a step - in vegetation, and where no move pays -
+     * and this spares reading the point and its owner. */
+    if (i >= c->n || g->cap[i] <= 0)
+        return;
+    const double *x = c->surface->xyz + 3 * s;
+    double b = c->bound[s];
     const double *p = pos + 3 * (size_t)i;
     double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
-    c->owner[s] = i;
     if (trusted(c, g, i, sqrt(dx * dx + dy * dy + dz * dz), x, b))
         return;
     uint32_t nb[2];
