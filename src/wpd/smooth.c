@@ -337,7 +337,7 @@ static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
 
 /* Longest step of one iteration, in units of r. Lloyd steps on a Poisson
  * sample are mostly a few hundredths of r, rarely a few tenths; the cap
- * bounds the reach of the spacing guard (0.75 r + 2 steps) and so how many
+ * bounds the reach of the spacing guard (0.82 r + 2 steps) and so how many
  * samples it checks. */
 #define STEP_MAX 0.25
 
@@ -347,7 +347,8 @@ static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
  * tile 3 and the terrain at 10 %); 0.35 gave the local CV the lowest of
  * the four quality rows in all 18 cases, 0.5 made large Jacobi steps
  * overshoot (terrain 10 K 0.1335 against 0.1275 at r/4; docs/algorithm.md
- * section 4). The spacing guard's reach is set by the larger step. */
+ * section 4). The spacing guard's reach follows the step of each
+ * iteration (iterate). */
 #define EVEN_REACH 0.35
 
 /* No sample ends farther than this (units of r) from where the Poisson

@@ -30,7 +30,8 @@ typedef struct spacing_without {
 /* Puts distance d (of point id) into the ascending list low[0..*got) that
  * keeps the kk smallest seen (ids alongside, if given; equal distances in
  * arrival order). */
-static inline void keep_smallest(double *low, uint32_t *ids, int *got, int kk, double d, uint32_t id)
+static inline void keep_smallest(double *low, uint32_t *ids, int *got, int kk, double d,
+                                 uint32_t id)
 {
     int at = *got < kk ? (*got)++ : kk;
     if (at == kk && d >= low[kk - 1])

@@ -31,8 +31,9 @@
  * within B(x) (the invariant), and that sample only moves where it keeps
  * x within B(x). (Where a sample's possible ends are a few known points, as
  * in an even-spacing step, |x e| <= B(x) for each of them and for p_j
- * serves as well as the cap's test.) The test involves one sample's own move, so it holds in a
- * Jacobi step whatever the others do. Hence after smoothing the Hausdorff
+ * serves as well as the cap's test; and a sample that stays keeps the
+ * points it owned within B(x) without a test.) The test involves one
+ * sample's own move, so it holds in a Jacobi step whatever the others do. Hence after smoothing the Hausdorff
  * distance from the input to the samples is at most max(tau, what it was
  * before), and a point nearer than tau to the samples stays within tau.
  */
@@ -58,7 +59,9 @@
 
 /* Where each sample may end this iteration when that is a short list of
  * points besides where it is (an even-spacing step: the input points it
- * may go onto, as the output stores them). */
+ * may go onto, as the output stores them). The list is complete: the
+ * sample ends, bit for bit, where it is or on one of them (a sample with
+ * a cap above 0 has at least one). */
 typedef struct wpd_step_ends {
     const double *xyz;     /* sample o's ends: xyz[3 * (o * per + j) ..], j < count[o] */
     const uint8_t *count;  /* [n] */

@@ -223,37 +223,80 @@ TEST(smooth_leaves_a_volumetric_blob_still)
     cloud_free(&c);
 }
 
-/* Whether input point 0 needs a keeper this iteration when sample 0, 0.5
- * from it (bound 1), plans a step of up to 0.8 onto one of `count` ends. */
-static int kept_with_ends(const double *ends, int count, int *failures_)
+/* The keeper of input point 0 (at the origin, bound 1) after a cover
+ * update with samples at pos[0..1], each planning its farthest end as its
+ * cap (count[i] ends from ends + 12 i, at most 4); -1 if no sample keeps
+ * it, and the owner into *owner. */
+static int keeper_with_ends(const double pos[6], const double ends[24], const uint8_t count[2],
+                            int with_ends, uint32_t *owner, int *failures_)
 {
     wpd_error err;
-    double x[3] = {0, 0, 0}, pos[6] = {0.5, 0, 0, 5, 5, 0}, cap[2] = {0.8, 0};
+    double x[3] = {0, 0, 0}, cap[2] = {0, 0};
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < count[i]; j++) {
+            const double *e = ends + 12 * i + 3 * j, *p = pos + 3 * i;
+            cap[i] = fmax(cap[i], sqrt((e[0] - p[0]) * (e[0] - p[0]) +
+                                       (e[1] - p[1]) * (e[1] - p[1]) +
+                                       (e[2] - p[2]) * (e[2] - p[2])));
+        }
     wpd_grid surface = {0}, samples = {0};
     wpd_cover cover;
     CHECK(wpd_grid_build(&surface, x, NULL, 1, 1, 1, &err) == 0);
     CHECK(wpd_grid_build(&samples, pos, NULL, 2, 1, 1, &err) == 0);
     CHECK(wpd_cover_init(&cover, &surface, pos, 2, 0, 1, 1, &err) == 0);
-    uint8_t counts[2] = {(uint8_t)count, 0};
-    wpd_step_ends e = {ends, counts, 4};
-    wpd_spacing_guard g = {&samples, pos, 2, cap, NULL, 1, 0, 0.8, count ? &e : NULL};
+    wpd_step_ends e = {ends, count, 4};
+    wpd_spacing_guard g = {&samples, pos, 2, cap, NULL, 1, 0, 2, with_ends ? &e : NULL};
     CHECK(wpd_cover_update(&cover, &g, pos, 1, &err) == 0);
-    int kept = (cover.owner[0] & WPD_COVER_KEEP) != 0;
-    CHECK(kept == (cover.first[1] - cover.first[0] == 1));
+    *owner = cover.owner[0] & ~WPD_COVER_KEEP;
+    int keeper = cover.owner[0] & WPD_COVER_KEEP ? (int)*owner : -1;
+    for (int i = 0; i < 2; i++) /* the slot lists agree with the flag */
+        CHECK((uint32_t)(cover.first[i + 1] - cover.first[i]) == (keeper == i));
     wpd_cover_free(&cover);
     wpd_grid_free(&surface);
     wpd_grid_free(&samples);
-    return kept;
+    return keeper;
 }
 
 TEST(cover_trusts_a_sample_whose_every_end_keeps_the_point)
 {
-    /* The cap says the sample may end 1.3 from the point, past its bound;
-     * its ends (an even step's tries) say where it may really go. */
-    double near[12] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 0.9};
-    double far[12] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 1.1};
-    CHECK_MSG(kept_with_ends(near, 0, failures_), "trusted though it may go anywhere within its cap");
-    CHECK_MSG(!kept_with_ends(near, 4, failures_), "not trusted though every end keeps the point");
-    CHECK_MSG(kept_with_ends(far, 4, failures_), "trusted though its last end is 1.1 from the point");
-    CHECK_MSG(!kept_with_ends(far, 3, failures_), "the ends past count were read");
+    /* Sample 0 stands 0.5 from the point; its cap says it may end 1.5 from
+     * it, past the bound 1; its ends (an even step's tries) say where it
+     * may really go. Sample 1 is far away. */
+    double pos[6] = {0.5, 0, 0, 5, 5, 0};
+    double near[24] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 0.9};
+    double out_first[24] = {1.1, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 0.9};
+    double out_middle[24] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0.9, 0.3, 0, 0.9};
+    double out_last[24] = {0.9, 0, 0, 0, 0.9, 0, -0.5, 0.5, 0, 0.3, 0, 1.1};
+    uint8_t four[2] = {4, 0}, three[2] = {3, 0};
+    uint32_t owner;
+    CHECK_MSG(keeper_with_ends(pos, near, four, 0, &owner, failures_) == 0,
+              "trusted though it may go anywhere within its cap");
+    CHECK_MSG(keeper_with_ends(pos, near, four, 1, &owner, failures_) == -1 && owner == 0,
+              "not trusted though every end keeps the point");
+    CHECK_MSG(keeper_with_ends(pos, out_first, four, 1, &owner, failures_) == 0,
+              "trusted though its first end is 1.1 from the point");
+    CHECK_MSG(keeper_with_ends(pos, out_middle, four, 1, &owner, failures_) == 0,
+              "trusted though its third end is 1.03 from the point");
+    CHECK_MSG(keeper_with_ends(pos, out_last, four, 1, &owner, failures_) == 0,
+              "trusted though its last end is 1.14 from the point");
+    CHECK_MSG(keeper_with_ends(pos, out_last, three, 1, &owner, failures_) == -1,
+              "the ends past the count were read");
+}
+
+TEST(cover_trusts_no_sample_that_may_stay_beyond_the_bound)
+{
+    /* Sample 0, the nearest (0.9), may end 1.2 from the point; sample 1
+     * stands 1.05 from it, past the bound, though its one end is within:
+     * it may be refused and stay, so the nearest keeps the point. */
+    double pos[6] = {0.9, 0, 0, 0, 1.05, 0};
+    double ends[24] = {1.2, 0, 0};
+    ends[12 + 1] = 0.5;
+    uint8_t count[2] = {1, 1};
+    uint32_t owner;
+    CHECK_MSG(keeper_with_ends(pos, ends, count, 1, &owner, failures_) == 0,
+              "sample 1 was trusted from its end alone (owner %u)", owner);
+    /* With sample 0's end within the bound too, it keeps its point. */
+    ends[0] = 0.95;
+    CHECK_MSG(keeper_with_ends(pos, ends, count, 1, &owner, failures_) == -1 && owner == 0,
+              "the nearest was not trusted from its end (owner %u)", owner);
 }
