@@ -14,6 +14,7 @@
 #include "wpd/poisson.h"
 #include "wpd/smooth.h"
 #include "wpd/smooth_guard.h"
+#include "wpd/smooth_surface.h"
 
 static double unit(uint64_t *state)
 {
@@ -299,4 +300,21 @@ TEST(cover_trusts_no_sample_that_may_stay_beyond_the_bound)
     ends[0] = 0.95;
     CHECK_MSG(keeper_with_ends(pos, ends, count, 1, &owner, failures_) == -1 && owner == 0,
               "the nearest was not trusted from its end (owner %u)", owner);
+}
+
+TEST(a_point_is_on_the_output_lattice_but_for_floating_error_only)
+{
+    /* lone-star: UTM coordinates relative to the minimum corner, a LAS
+     * scale of 0.00025, a millionth of a step of floating error. */
+    double res[3] = {0.00025, 0.00025, 0.00025}, none[3] = {0, 0, 0};
+    double p[3] = {4.1560000000172295, 0.40500000026077032, 0.30674999999973807}, q[3];
+    wpd_round_to_output(res, p, q);
+    CHECK(q[0] == 16624 * 0.00025 && q[1] == 1620 * 0.00025 && q[2] == 1227 * 0.00025);
+    CHECK_MSG(wpd_on_lattice(res, p, q), "a millionth of a step off counts as off");
+    double off[3] = {p[0] + 0.01 * res[0], p[1], p[2]};
+    wpd_round_to_output(res, off, q);
+    CHECK_MSG(!wpd_on_lattice(res, off, q), "a hundredth of a step off counts as on");
+    wpd_round_to_output(none, off, q);
+    CHECK_MSG(memcmp(q, off, sizeof q) == 0 && wpd_on_lattice(none, off, q),
+              "no lattice: the point moved or is off it");
 }
