@@ -264,6 +264,15 @@ void wpd_cover_free(wpd_cover *c)
     memset(c, 0, sizeof *c);
 }
 
+/* 1 if a sample at p keeps input point x within its bound b: the one test
+ * behind both the trust from a sample's ends and what its moves keep
+ * (wpd_cover_holds), so the two judge a place alike. */
+static int keeps(const double p[3], const double x[3], double b)
+{
+    double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
+    return !(dx * dx + dy * dy + dz * dz > b * b);
+}
+
 /* Whether sample i, at distance d from input point x (bound b), keeps x
  * within b wherever it goes this iteration: its cap says so, or each of
  * its possible ends does (where the guard has them). */
@@ -277,11 +286,9 @@ static int trusted(const wpd_cover *c, const wpd_spacing_guard *g, uint32_t i, d
     if (!ends || i >= c->n || d > b)
         return 0;
     const double *e = ends->xyz + 3 * (size_t)i * (size_t)ends->per;
-    for (int j = 0; j < ends->count[i]; j++, e += 3) {
-        double dx = e[0] - x[0], dy = e[1] - x[1], dz = e[2] - x[2];
-        if (dx * dx + dy * dy + dz * dz > b * b) /* as wpd_cover_holds judges it */
+    for (int j = 0; j < ends->count[i]; j++, e += 3)
+        if (!keeps(e, x, b))
             return 0;
-    }
     return 1;
 }
 
@@ -380,12 +387,8 @@ double wpd_cover_limit(const wpd_cover *c, size_t o, const double p[3], const do
 
 int wpd_cover_holds(const wpd_cover *c, size_t o, const double p[3])
 {
-    for (uint32_t a = c->first[o]; a < c->first[o + 1]; a++) {
-        const double *x = c->surface->xyz + 3 * (size_t)c->slot[a];
-        double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
-        double b = c->bound[c->slot[a]];
-        if (dx * dx + dy * dy + dz * dz > b * b)
+    for (uint32_t a = c->first[o]; a < c->first[o + 1]; a++)
+        if (!keeps(p, c->surface->xyz + 3 * (size_t)c->slot[a], c->bound[c->slot[a]]))
             return 0;
-    }
     return 1;
 }
