@@ -1,5 +1,5 @@
 # wpd - Weighted Poisson-disk resampling of huge point clouds.
-# Targets: all (./wpd), test, demo, bench, install PREFIX=..., clean, deps.
+# Targets: all (./wpd), test, test-full, demo, bench, install PREFIX=..., clean, deps.
 
 CC      ?= gcc
 CFLAGS  ?= -O2 -g
@@ -20,9 +20,10 @@ TEST_OBJ := $(TEST_SRC:%.c=build/%.o)
 # Debian packages needed to build and test (Open MPI for the MPI build and
 # its tests).
 DEB_PKGS := gcc make libzstd-dev libpng-dev libc6-dev python3 python3-numpy bc \
-            openmpi-bin libopenmpi-dev
+            openmpi-bin libopenmpi-dev python3-pytest python3-pytest-xdist
+JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all test demo bench install clean deps lazperf
+.PHONY: all test test-full test-build demo bench install clean deps lazperf
 
 all: wpd
 
@@ -79,10 +80,17 @@ deps:
 	  else echo "deps: missing$$missing (run 'make deps' as root)"; exit 1; fi; \
 	fi
 
-test: deps lazperf
-	$(MAKE) wpd build/unit_tests
-	if command -v $(MPICC) >/dev/null; then $(MAKE) wpd-mpi; fi
-	tests/run.sh
+# The test tiers (docs/testing.md): `make test` the fast one, `make
+# test-full` every test.
+test-build: deps lazperf
+	$(MAKE) -j$(JOBS) wpd build/unit_tests
+	if command -v $(MPICC) >/dev/null; then $(MAKE) -j$(JOBS) wpd-mpi; fi
+
+test: test-build
+	tests/run.sh fast
+
+test-full: test-build
+	tests/run.sh full
 
 # laz-perf 0.0.7 (npm), the independent LAZ decoder the tests cross-check our
 # LAZ output with (../shared/tools/laz2las.js), in build/npm. Best effort:
@@ -212,7 +220,7 @@ $(ASAN_DIR)/unit_tests: $(ASAN_TEST_OBJ) $(ASAN_DIR)/libwpd.a
 	$(CC) $(LDFLAGS) $(ASAN_SAN) -o $@ $^ $(LDLIBS)
 
 asan-build: deps
-	@$(MAKE) --no-print-directory $(ASAN_DIR)/wpd $(ASAN_DIR)/unit_tests
+	@$(MAKE) --no-print-directory -j$(JOBS) $(ASAN_DIR)/wpd $(ASAN_DIR)/unit_tests
 
 test-asan: asan-build
 	tests/asan.sh $(ASAN_DIR)

@@ -2,12 +2,15 @@
  *
  * With WPD_TEST_STALL=<name> in the environment, the process stops at the
  * point of that name (printing "wpd: stalled at <name>" on stderr) and waits
- * for a signal, so a test can kill it at a known moment: "tile" (the first
- * points are spilled), "write" (the temporary output exists), "records" (the
- * samples are in their runs, the records pass is about to read), "per-input"
- * (every --per-input output is complete under its temporary name, none
- * renamed yet). Without the
- * variable it costs one getenv per call. */
+ * for a signal, so a test can kill it at a known moment. The points of a
+ * `wpd resample` run, in the order it meets them: "scan" (the output is
+ * locked, nothing read yet), "tile" (the first points are spilled),
+ * "poisson", "exact", "smooth" and "merge" (the start of those phases),
+ * "records" (the samples are in their runs, the records pass is about to
+ * read), "write" (the temporary output exists; every command that writes a
+ * file meets it), "per-input" (every --per-input output is complete under
+ * its temporary name, none renamed yet). Without the variable it costs one
+ * getenv per call. */
 #ifndef WPD_TESTHOOK_H
 #define WPD_TESTHOOK_H
 

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "common/heap.h"
+#include "common/testhook.h"
 #include "resample/budget.h"
 #include "resample/run.h"
 #include "core/knn.h"
@@ -199,6 +200,7 @@ static int tile_phase(wpd_run *run, wpd_error *err)
 static int finish(wpd_run *run, wpd_error *err)
 {
     double t = omp_get_wtime();
+    wpd_test_stall("merge");
     if (wpd_merge_phase(run, err))
         return -1;
     run->res->time.merge = omp_get_wtime() - t;
@@ -226,6 +228,7 @@ static int poisson_phase(wpd_run *run, wpd_error *err)
 static int run_phases(wpd_run *run, wpd_error *err)
 {
     wpd_resample_timings *tm = &run->res->time;
+    wpd_test_stall("scan");
     if (scan_and_plan(run, err) || tile_phase(run, err))
         return -1;
     if (run->opt->target >= run->scan.count)
@@ -237,16 +240,19 @@ static int run_phases(wpd_run *run, wpd_error *err)
      * Measured on 100 M -> 1 M, --mem 512M: 205 -> 178 MB, 50 K more page
      * faults (about 0.3 s of system time). */
     double t = omp_get_wtime();
+    wpd_test_stall("poisson");
     if (poisson_phase(run, err))
         return -1;
     tm->poisson = omp_get_wtime() - t;
     wpd_heap_release();
     t = omp_get_wtime();
+    wpd_test_stall("exact");
     if (wpd_exact_phase(run, err))
         return -1;
     tm->exact = omp_get_wtime() - t;
     wpd_heap_release();
     t = omp_get_wtime();
+    wpd_test_stall("smooth");
     if (wpd_smooth_phase(run, err))
         return -1;
     tm->smooth = omp_get_wtime() - t;

@@ -1,12 +1,12 @@
-"""Minimal end-to-end test harness: tests are functions named test_* in the
-modules given to run(); each runs in a fresh temporary directory. Prints
-"N passed, N failed" last."""
+"""What the end-to-end tests share: the wpd under test, the shared real
+data, running wpd, and small real clouds cut from the scans. The tests run
+under pytest (conftest.py, docs/testing.md)."""
 import os
-import shutil
+import struct
 import subprocess
-import sys
-import tempfile
-import traceback
+
+import numpy as np
+import pytest
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 # WPD_BIN runs the suite against another build (make test-asan: build/asan/wpd).
@@ -26,8 +26,8 @@ def sanitized():
 DATA = os.environ.get("WPD_TEST_DATA", os.path.join(REPO, "..", "shared", "data"))
 
 
-class Skip(Exception):
-    pass
+# A test that cannot run here (a missing file or tool) raises Skip("why").
+Skip = pytest.skip.Exception
 
 
 def data(*parts):
@@ -56,30 +56,46 @@ def wpd(*args, check=True, env=None):
     return p
 
 
-def run(modules):
-    passed = failed = skipped = 0
-    only = sys.argv[1] if len(sys.argv) > 1 else None
-    for mod in modules:
-        for name in sorted(n for n in dir(mod) if n.startswith("test_")):
-            if only and only not in name:
-                continue
-            tmp = tempfile.mkdtemp(prefix="wpd-e2e-")
-            cwd = os.getcwd()
-            os.chdir(tmp)
-            try:
-                getattr(mod, name)()
-                print("ok   %s" % name)
-                passed += 1
-            except Skip as e:
-                print("skip %s (%s)" % (name, e))
-                skipped += 1
-            except Exception:
-                print("FAIL %s" % name)
-                traceback.print_exc(file=sys.stdout)
-                failed += 1
-            finally:
-                os.chdir(cwd)
-                shutil.rmtree(tmp, ignore_errors=True)
-            sys.stdout.flush()
-    print("%d passed, %d failed" % (passed, failed) + (", %d skipped" % skipped if skipped else ""))
-    return 1 if failed else 0
+def cut_las(src, dst, fx, fy):
+    """Writes to dst the points of LAS file src (point formats 0-10, versions
+    1.0-1.4, no EVLRs) that lie in the box from the header's minimum corner
+    over the fractions fx and fy of its x and y extents, with the header's
+    counts, per-return counts and bounds made true for them."""
+    with open(src, "rb") as f:
+        blob = f.read()
+    header_size, offset = struct.unpack_from("<HI", blob, 94)
+    pdrf, reclen, legacy = struct.unpack_from("<BHI", blob, 104)
+    version = (blob[24], blob[25])
+    count = legacy
+    if version >= (1, 4) and header_size >= 375:
+        count = struct.unpack_from("<Q", blob, 247)[0] or legacy
+    scale = np.array(struct.unpack_from("<3d", blob, 131))
+    shift = np.array(struct.unpack_from("<3d", blob, 155))
+    mx, mn, my, mny = struct.unpack_from("<4d", blob, 179)
+    rec = np.frombuffer(blob, np.uint8, count * reclen, offset).reshape(count, reclen)
+    xyz = rec[:, :12].copy().view("<i4").reshape(count, 3) * scale + shift
+    keep = (xyz[:, 0] <= mn + fx * (mx - mn)) & (xyz[:, 1] <= mny + fy * (my - mny))
+    rec, xyz = rec[keep], xyz[keep]
+    head = bytearray(blob[:offset])
+    n = len(rec)
+    returns = rec[:, 14] & (0x0F if pdrf >= 6 else 0x07)
+    by_return = [int(np.count_nonzero(returns == k)) for k in range(1, 16)]
+    if version >= (1, 4) and header_size >= 375:
+        struct.pack_into("<Q15Q", head, 247, n, *by_return)
+    legacy_ok = pdrf < 6 and n < 1 << 32
+    struct.pack_into("<I5I", head, 107, n if legacy_ok else 0,
+                     *(by_return[:5] if legacy_ok else [0] * 5))
+    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    struct.pack_into("<6d", head, 179, hi[0], lo[0], hi[1], lo[1], hi[2], lo[2])
+    with open(dst, "wb") as f:
+        f.write(head)
+        f.write(rec.tobytes())
+    return n
+
+
+def slow(*values):
+    """A pytest parameter set for the full tier only."""
+    return pytest.param(*values, marks=pytest.mark.slow)
+
+
+NC = "nc_raleigh_lidar_2269213.las"

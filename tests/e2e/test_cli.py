@@ -10,10 +10,13 @@ import signal
 import subprocess
 import time
 
-from formats import read_las
-from harness import REPO, WPD, data, wpd
+import pytest
 
-NC = ("scans", "nc_raleigh_lidar_2269213.las")
+from formats import read_las
+from harness import NC, REPO, WPD, data, slow, wpd
+
+# The fast tier's clouds for the tests of cleanup, and the full scan.
+CLOUDS = ["nc_cut", slow(NC)]
 
 
 def leftovers(path="."):
@@ -30,7 +33,8 @@ def test_exit_codes_for_real_cases():
     bad = data("bad", "pdal_1.2-with-color-clipped.las")
     assert wpd("resample", bad, "-o", "x.las", "-n", 10, check=False).returncode == 2
     assert wpd("resample", "missing.las", "-o", "x.las", "-n", 10, check=False).returncode == 3
-    p = wpd("resample", data(*NC), "-o", "x.las", "-n", 100000, "--mem", "8M", check=False)
+    p = wpd("resample", data("scans", NC), "-o", "x.las", "-n", 100000, "--mem", "8M",
+            check=False)
     assert p.returncode == 4
     assert sorted(os.listdir(".")) == ["ok.las"], os.listdir(".")
 
@@ -40,8 +44,9 @@ def limit_file_size():
     resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
 
 
-def test_disk_full_is_an_io_error_and_leaves_nothing():
-    src = data(*NC)
+@pytest.mark.parametrize("name", CLOUDS)
+def test_disk_full_is_an_io_error_and_leaves_nothing(scan, name):
+    src = scan(name)
     os.makedirs("spill")
     for extra in ([], ["--min-tiles", "4", "--tmpdir", "spill"]):
         p = subprocess.run([WPD, "resample", src, "-o", "out.las", "-n", "20000", *extra],
@@ -59,8 +64,10 @@ def start_stalled(args, point):
     return p
 
 
-def test_signals_in_tile_and_write_phases_leave_nothing():
-    src = data(*NC)
+@pytest.mark.serial
+@pytest.mark.parametrize("name", CLOUDS)
+def test_signals_in_tile_and_write_phases_leave_nothing(scan, name):
+    src = scan(name)
     os.makedirs("spill")
     args = ["resample", src, "-o", "out.las", "-n", 20000, "--min-tiles", 4, "--tmpdir", "spill"]
     for point in ("tile", "write"):
@@ -73,8 +80,10 @@ def test_signals_in_tile_and_write_phases_leave_nothing():
             assert leftovers(".") == [] and leftovers("spill") == [], (point, sig)
 
 
-def test_sigkill_leftovers_are_removed_by_the_next_run():
-    src = data(*NC)
+@pytest.mark.serial
+@pytest.mark.parametrize("name", CLOUDS)
+def test_sigkill_leftovers_are_removed_by_the_next_run(scan, name):
+    src = scan(name)
     os.makedirs("spill")
     args = ["resample", src, "-o", "out.las", "-n", 20000, "--min-tiles", 4, "--tmpdir", "spill"]
     for point in ("tile", "write"):
@@ -138,11 +147,12 @@ def documented_report_fields():
         return re.findall(r"^\| `(\w+)` \|", f.read(), re.M)
 
 
-def test_report_is_valid_json_with_the_documented_fields():
+@pytest.mark.parametrize("name", CLOUDS)
+def test_report_is_valid_json_with_the_documented_fields(scan, name):
     fields = documented_report_fields()
     assert len(fields) >= 20, fields
     for extra in ([], ["--min-tiles", 4]):
-        wpd("resample", data(*NC), "-o", "out.las", "-n", 20000, "--report", "r.json",
+        wpd("resample", scan(name), "-o", "out.las", "-n", 20000, "--report", "r.json",
             "--metrics", "--force", "-q", *extra)
         with open("r.json") as f:
             r = json.load(f)

@@ -7,9 +7,10 @@ import re
 import struct
 
 import numpy as np
+import pytest
 
 from formats import read_las, read_ply
-from harness import data, wpd
+from harness import NC, slow, wpd
 
 # Standard record sizes of the LAS point data record formats 0..10.
 PDRF_SIZE = [20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67]
@@ -85,6 +86,7 @@ def labelled_against_truth(cloud, cap, out):
     return precision, recall, kinds, edge, h
 
 
+@pytest.mark.quality
 def test_detector_precision_and_recall_on_synth():
     # The detector on every input point against the truth, cap 2.7 m (the
     # radius estimate of a run to 1 %, wider than the detector's reach of 4
@@ -100,6 +102,7 @@ def test_detector_precision_and_recall_on_synth():
     assert (edge == 1).mean() < 0.01, "labels are rare: creases only"
 
 
+@pytest.mark.quality
 def test_oblique_survey_shows_the_walls_and_their_creases():
     # synth --oblique: the same scene scanned from cross strips whose
     # pulses lean 35-65 degrees from nadir. Its walls carry points, so the
@@ -143,7 +146,7 @@ def test_oblique_edge_label_memory_equals_tiles():
 
 
 def test_resample_edge_label_in_las_and_ply_memory_and_tiles():
-    wpd("synth", "-n", 200000, "--seed", 2, "-o", "city.las", "--edge-truth")
+    wpd("synth", "-n", 100000, "--seed", 2, "-o", "city.las", "--edge-truth")
     wpd("convert", "city.las", "city.ply")
     for ext in (".las", ".ply"):
         opts = ("-n", 5000, "--sharp", "--edge-label", "--no-smooth", "--force", "-v")
@@ -204,9 +207,10 @@ def test_edge_label_needs_sharp():
     assert p.returncode == 1 and "--sharp" in p.stderr
 
 
-def test_nc_labels_under_a_tenth():
-    src = data("scans", "nc_raleigh_lidar_2269213.las")
-    out = wpd("resample", src, "-o", "nc.las", "-n", 100000, "--sharp", "--edge-label",
+@pytest.mark.parametrize("name,n", [("nc_cut", 10000), slow(NC, 100000)])
+def test_nc_labels_under_a_tenth(scan, name, n):
+    src = scan(name)
+    out = wpd("resample", src, "-o", "nc.las", "-n", n, "--sharp", "--edge-label",
               "-v").stdout
     labelled = int(re.search(r"sharp features: (\d+) input points", out).group(1))
-    assert 0 < labelled < 0.1 * 2269213, labelled
+    assert 0 < labelled < 0.1 * read_las(src)["count"], labelled

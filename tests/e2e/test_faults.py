@@ -10,18 +10,25 @@ an LD_PRELOAD interposer compiled here with `cc -shared -fPIC` (those tests
 skip when there is no compiler; under a sanitizer build, whose allocator
 must stay its own, only the allocation tests skip). The full disk is a
 small tmpfs when mount works (root), else the interposer; a file size
-limit is also tested. Random moments are seeded: the seed is printed and
-WPD_FAULT_SEED=S repeats a run."""
+limit is also tested. Signals land at the named stop points of
+src/common/testhook.h (the fast tier) or at random moments (the full tier).
+Random choices are seeded: the seed is printed and WPD_FAULT_SEED=S repeats
+them. With WPD_FAULT_RECORD=FILE every run's outcome is appended to FILE
+(tests/replay_faults.sh compares two runs of the suite)."""
 import atexit
 import hashlib
+import json
 import os
 import random
+import re
 import resource
 import shutil
 import signal
 import subprocess
 import tempfile
 import time
+
+import pytest
 
 from formats import read_las, read_ply
 from harness import DATA, REPO, WPD, Skip, sanitized
@@ -102,10 +109,52 @@ def leftovers(*dirs):
             or ".wpd-tmp-" in f or f.endswith(".wpd-lock")]
 
 
+def normalised(text):
+    """text with what differs between two runs of one case made alike: the
+    test's and the cache's directories, and the process ids and random
+    letters in the names of temporary files."""
+    text = text.replace(os.getcwd(), "<test>").replace(_cache_dir(), "<cache>")
+    return re.sub(r"(wpd-(?:spill|runs|blobs|cache)-|\.wpd-tmp-)[^/\s'\"]+", r"\1*", text)
+
+
+def record(args, returncode, stderr):
+    """With WPD_FAULT_RECORD=FILE: appends one JSON line to FILE with the
+    test, the command, its exit code, its standard error and every file then
+    under the test's directory (names normalised())."""
+    path = os.environ.get("WPD_FAULT_RECORD")
+    if not path:
+        return
+    files = sorted(normalised(os.path.join(d, f)) for d, _, fs in os.walk(os.getcwd())
+                   for f in fs)
+    line = {"test": os.environ.get("PYTEST_CURRENT_TEST", "").split(" ")[0],
+            "args": normalised(" ".join(map(str, args))), "exit": returncode,
+            "stderr": normalised(stderr), "files": files}
+    with open(path, "a") as f:
+        f.write(json.dumps(line) + "\n")
+
+
 def run(args, env=None, preexec_fn=None, timeout=120):
     full_env = dict(os.environ, **(env or {}))
-    return subprocess.run([WPD, *map(str, args)], capture_output=True, text=True, env=full_env,
-                          preexec_fn=preexec_fn, timeout=timeout)
+    p = subprocess.run([WPD, *map(str, args)], capture_output=True, text=True, env=full_env,
+                       preexec_fn=preexec_fn, timeout=timeout)
+    record(args, p.returncode, p.stderr)
+    return p
+
+
+def stop_at(args, stop, sig):
+    """Runs `wpd ARGS` until it stalls at the named stop point (testhook.h),
+    sends sig, and returns (exit code, standard error) once it has ended."""
+    p = subprocess.Popen([WPD, *map(str, args)], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True,
+                         env=dict(os.environ, WPD_TEST_STALL=stop))
+    line = p.stderr.readline()
+    assert "stalled at " + stop in line, (stop, line)
+    p.send_signal(sig)
+    err = line + p.stderr.read()
+    p.wait(timeout=60)
+    p.stderr.close()
+    record([*args, "(%s at %s)" % (sig.name, stop)], p.returncode, err)
+    return p.returncode, err
 
 
 def preload(**faults):
@@ -531,6 +580,36 @@ def random_signal_case(ext="las"):
     return c, rng, base
 
 
+# The named stop points of a resample run through tiles, in order.
+STOPS = ("scan", "tile", "poisson", "exact", "smooth", "merge", "records", "write")
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("ext", ["las", "laz"])
+def test_signals_at_every_stop_point_leave_nothing(ext):
+    """At each stop point of a run through tiles, SIGTERM, SIGINT or SIGHUP
+    (in turn) ends it by that signal with nothing left (no output, spill,
+    run or blob files, record cache, temporary output or lock); SIGKILL
+    leaves what it leaves, and the next run removes it and finishes."""
+    src = synth_laz(100_000) if ext == "laz" else synth(100_000, "las")
+    for k, stop in enumerate(STOPS):
+        for sig in ((signal.SIGTERM, signal.SIGINT, signal.SIGHUP)[k % 3], signal.SIGKILL):
+            what = "%s at %s, %s input" % (sig.name, stop, ext)
+            c = Case(src, "out.las", 5_000, ["--min-tiles", 4])
+            rc, err = stop_at(c.args, stop, sig)
+            assert rc == -sig, "%s: exit %d: %s" % (what, rc, err)
+            if sig != signal.SIGKILL:
+                c.check_clean(what)
+                continue
+            assert not os.path.exists("out.las"), what
+            c.run()
+            c.check_succeeded("the run after " + what)
+            assert os.listdir(c.spill) == [], (what, os.listdir(c.spill))
+            os.remove("out.las")
+
+
+@pytest.mark.slow
+@pytest.mark.serial
 def test_sigterm_and_sigint_at_random_moments_leave_nothing():
     c, rng, base = random_signal_case()
     interrupted = 0
@@ -582,6 +661,7 @@ def test_sigterm_and_sigint_at_random_moments_leave_nothing():
     print("  --per-input: %d of 4 runs interrupted" % interrupted)
 
 
+@pytest.mark.serial
 def test_signals_before_the_per_input_renames_leave_nothing():
     """20 outputs finished under temporary names, none renamed (more than
     the signal handlers' registry holds one by one): SIGTERM, SIGINT and
@@ -606,6 +686,7 @@ def test_signals_before_the_per_input_renames_leave_nothing():
             c.check_clean(sig.name)
 
 
+@pytest.mark.serial
 def test_failures_in_the_records_pass_leave_no_run_file():
     """The samples' runs (files of their own when tiled, issue 12) exist
     from the end of the run to the end of the records pass: a read error
@@ -656,10 +737,14 @@ def test_failures_in_the_records_pass_leave_no_run_file():
             c.check_clean(sig.name)
 
 
+@pytest.mark.slow
+@pytest.mark.serial
 def test_sigkill_at_random_moments_then_the_next_run_sweeps():
     sigkill_then_sweep("las")
 
 
+@pytest.mark.slow
+@pytest.mark.serial
 def test_sigkill_of_a_laz_run_then_the_next_run_sweeps_its_record_cache():
     sigkill_then_sweep("laz")
 

@@ -16,9 +16,11 @@ import signal
 import subprocess
 import time
 
+import pytest
+
 from harness import WPD
 from test_faults import (PATHS, Case, FullDisk, check_one_line, cuts, leftovers, point_count,
-                         preload, run, sha256, synth, truncate_copy)
+                         preload, run, sha256, stop_at, synth, truncate_copy)
 
 
 class Command:
@@ -241,6 +243,38 @@ def test_standard_output_that_cannot_be_written_is_an_io_error():
 
 # ------------------------------------------------------------------ signals
 
+@pytest.mark.serial
+def test_commands_stopped_while_writing_leave_nothing():
+    """Every command that writes files, stopped with its temporary outputs
+    open (the "write" stop point): SIGTERM, SIGINT and SIGHUP end it by
+    that signal with no output and no temporary file; after SIGKILL the
+    next run of the command removes what it left and finishes. synth
+    --tiles 20 keeps 20 temporary files open at once, more than the signal
+    handlers' registry holds one by one."""
+    src = synth(30_000, "las")
+    tiles = ["t_tile%d.las" % k for k in range(1, 21)]
+    cmds = [Command(["convert", src, "out.ply"], [src], ["out.ply"]),
+            Command(["convert", src, "out.laz"], [src], ["out.laz"]),
+            Command(["preview", src, "-o", "out.png", "-q"], [src], ["out.png"]),
+            Command(["synth", "-n", 30_000, "-o", "s.las"], [], ["s.las"]),
+            Command(["synth", "-n", 30_000, "--tiles", 20, "-o", "t.las"], [], tiles)]
+    for cmd in cmds:
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGKILL):
+            what = "%s, %s while writing" % (" ".join(cmd.args), sig.name)
+            rc, err = stop_at(cmd.args, "write", sig)
+            assert rc == -sig, "%s: exit %d: %s" % (what, rc, err)
+            for out in cmd.outputs:
+                assert not os.path.exists(out), "%s: output %s left" % (what, out)
+            if sig != signal.SIGKILL:
+                cmd.check_clean(what)
+                continue
+            cmd.run()
+            cmd.check_succeeded("the run after " + what)
+            cmd.remove_outputs()
+
+
+@pytest.mark.slow
+@pytest.mark.serial
 def test_commands_stopped_by_signals_at_random_moments_leave_nothing():
     """SIGTERM and SIGINT at seeded random fractions of an uninterrupted
     run: killed by the signal with nothing left, or finished first with

@@ -165,7 +165,7 @@ def test_laz_resample_same_records_as_las_output():
     for src in (data("laz", "lastools_fusa.laz"), data("las", "pdal_autzen_trim.las"),
                 data("laz", "copcvalidator_ellipsoid-1.4.laz")):
         for extra in ((), ("--min-tiles", 4)):
-            opts = ("-n", 60000, "--threads", 2, "--force", *extra)
+            opts = ("-n", 20000, "--threads", 2, "--force", *extra)
             wpd("resample", src, "-o", "r.las", *opts)
             wpd("resample", src, "-o", "r.laz", *opts)
             check_same_as_las("r.laz", "r.las")

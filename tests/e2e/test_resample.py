@@ -5,8 +5,10 @@ import filecmp
 import json
 import re
 
+import pytest
+
 from formats import read_las, read_ply
-from harness import data, manifest, wpd
+from harness import NC, data, manifest, slow, wpd
 
 CONF_IN = ("scans", "wpd_conferenceRoom_1_input.ply")
 CONF_REF = ("scans", "wpd_conferenceRoom_1_output_2000.ply")
@@ -16,6 +18,10 @@ def scans():
     for row in manifest("scans"):
         if row["file"] != CONF_REF[1]:
             yield data("scans", row["file"]), int(row["point_count"]), row
+
+
+SMALL_SCANS = ("wpd_conferenceRoom_1_input.ply", "meshlab_rangemap_lato270.ply",
+               "lone-star_tile4.las")
 
 
 def finite_count(path):
@@ -36,47 +42,59 @@ def radius_of(stdout):
     return float(re.search(r"radius ([0-9.eE+-]+)", stdout).group(1))
 
 
+def exact_count(path):
+    total = finite_count(path)
+    ext = path[-4:]
+    for n in sorted({1, 1000, total // 10, total // 2}):
+        if n < 1 or n > total:
+            continue
+        wpd("resample", path, "-o", "out" + ext, "-n", n, "--force", "-q")
+        assert count_points("out" + ext) == n, (path, n)
+
+
+def test_exact_count_on_small_scans():
+    for name in SMALL_SCANS:
+        exact_count(data("scans", name))
+
+
+@pytest.mark.slow
 def test_exact_count_on_every_scan():
     for path, _, _ in scans():
-        total = finite_count(path)
-        ext = path[-4:]
-        for n in sorted({1, 1000, total // 10, total // 2}):
-            if n < 1 or n > total:
-                continue
-            wpd("resample", path, "-o", "out" + ext, "-n", n, "--force", "-q")
-            assert count_points("out" + ext) == n, (path, n)
+        exact_count(path)
 
 
-def test_no_pair_closer_than_r_without_smoothing():
-    for name in ("nc_raleigh_lidar_2269213.las", "pcl_office1_organized_nan.ply",
-                 "lone-star_tile2.las"):
-        src = data("scans", name)
-        out = wpd("resample", src, "-o", "out.ply", "-n", "2%", "--no-smooth",
-                  "--force", "-v").stdout
-        r = radius_of(out)
-        m = metrics(src, "out.ply")
-        assert m["min_spacing"] >= r * (1 - 1e-9), (name, m["min_spacing"], r)
+@pytest.mark.parametrize("name", ["nc_cut", "pcl_office1_organized_nan.ply",
+                                  "lone-star_tile2.las", slow(NC)])
+def test_no_pair_closer_than_r_without_smoothing(scan, name):
+    src = scan(name)
+    out = wpd("resample", src, "-o", "out.ply", "-n", "2%", "--no-smooth",
+              "--force", "-v").stdout
+    r = radius_of(out)
+    m = metrics(src, "out.ply")
+    assert m["min_spacing"] >= r * (1 - 1e-9), (name, m["min_spacing"], r)
 
 
-def test_smoothing_evens_the_voronoi_cells_and_stays_on_the_surface():
-    for name in ("nc_raleigh_lidar_2269213.las", "meshlab_rangemap_lato270.ply",
-                 "wpd_conferenceRoom_1_input.ply", "pcldata_terrain_CSite1_red1-utm.ply"):
-        src = data("scans", name)
-        wpd("resample", src, "-o", "raw.ply", "-n", "5%", "--no-smooth", "-q", "--force")
-        wpd("resample", src, "-o", "smooth.ply", "-n", "5%", "-q", "--force")
-        raw, smooth = metrics(src, "raw.ply"), metrics(src, "smooth.ply")
-        assert smooth["voronoi_area"]["cv"] < raw["voronoi_area"]["cv"], (
-            name, raw["voronoi_area"]["cv"], smooth["voronoi_area"]["cv"])
-        drift = smooth["drift"]
-        assert drift["over_local_spacing"] == 0, (name, drift)
+@pytest.mark.quality
+@pytest.mark.parametrize("name", ["nc_cut", "meshlab_rangemap_lato270.ply",
+                                  "wpd_conferenceRoom_1_input.ply", slow(NC),
+                                  slow("pcldata_terrain_CSite1_red1-utm.ply")])
+def test_smoothing_evens_the_voronoi_cells_and_stays_on_the_surface(scan, name):
+    src = scan(name)
+    wpd("resample", src, "-o", "raw.ply", "-n", "5%", "--no-smooth", "-q", "--force")
+    wpd("resample", src, "-o", "smooth.ply", "-n", "5%", "-q", "--force")
+    raw, smooth = metrics(src, "raw.ply"), metrics(src, "smooth.ply")
+    assert smooth["voronoi_area"]["cv"] < raw["voronoi_area"]["cv"], (
+        name, raw["voronoi_area"]["cv"], smooth["voronoi_area"]["cv"])
+    drift = smooth["drift"]
+    assert drift["over_local_spacing"] == 0, (name, drift)
 
 
-def test_las_output_stays_on_the_surface_after_quantisation():
+@pytest.mark.parametrize("name", ["lone-star_tile1.las", "nc_cut", slow(NC)])
+def test_las_output_stays_on_the_surface_after_quantisation(scan, name):
     # LAS output rounds moved points to the input's scale: still no drift.
-    for name in ("lone-star_tile1.las", "nc_raleigh_lidar_2269213.las"):
-        src = data("scans", name)
-        wpd("resample", src, "-o", "out.las", "-n", "5%", "-q", "--force")
-        assert metrics(src, "out.las")["drift"]["over_local_spacing"] == 0, name
+    src = scan(name)
+    wpd("resample", src, "-o", "out.las", "-n", "5%", "-q", "--force")
+    assert metrics(src, "out.las")["drift"]["over_local_spacing"] == 0, name
 
 
 def test_same_bytes_for_threads_and_seed():
@@ -90,8 +108,9 @@ def test_same_bytes_for_threads_and_seed():
     assert not filecmp.cmp("t1.las", "s7.las", shallow=False)
 
 
-def test_attributes_carried_over():
-    src = data("scans", "nc_raleigh_lidar_2269213.las")
+@pytest.mark.parametrize("name", ["nc_cut", slow(NC)])
+def test_attributes_carried_over(scan, name):
+    src = scan(name)
     wpd("resample", src, "-o", "out.las", "-n", 20000, "-q")
     a, b = read_las(src), read_las("out.las")
     assert b["pdrf"] == a["pdrf"] and b["record_length"] == a["record_length"]
@@ -102,6 +121,7 @@ def test_attributes_carried_over():
     assert all(b["points"][i + 12:i + rl] in tails for i in range(0, len(b["points"]), rl))
 
 
+@pytest.mark.quality
 def test_beats_the_release_on_the_conference_room():
     src, ref = data(*CONF_IN), data(*CONF_REF)
     wpd("resample", src, "-o", "ours.ply", "-n", 2000)
