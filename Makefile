@@ -226,3 +226,51 @@ test-asan: asan-build
 	tests/asan.sh $(ASAN_DIR)
 
 -include $(FUZZ_LIB_OBJ:.o=.d) $(FUZZ_CODEC_OBJ:.o=.d) $(ASAN_LIB_OBJ:.o=.d) $(ASAN_MAIN_OBJ:.o=.d) $(ASAN_TEST_OBJ:.o=.d)
+
+# ---- Coverage of the test tiers (docs/testing.md) ----------------------------
+# make coverage [TIER=fast|full]  line coverage of src/ and tools/ by one tier,
+#                                 a gcov build in build/cov (wpd, wpd-mpi, unit
+#                                 tests), summary in build/cov/TIER.json;
+#                                 tests/coverage_compare.py compares two tiers.
+COV_DIR      := build/cov
+COV_FLAGS    := -O1 --coverage
+COV_LIB_OBJ  := $(LIB_SRC:%.c=$(COV_DIR)/%.o)
+COV_MAIN_OBJ := $(COV_DIR)/src/cli/main.o
+COV_TEST_OBJ := $(TEST_SRC:%.c=$(COV_DIR)/%.o)
+TIER         ?= fast
+
+.PHONY: coverage coverage-build
+
+$(COV_DIR)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) $(COV_FLAGS) -MMD -MP -c -o $@ $<
+
+$(COV_DIR)/mpi/par_mpi.o: src/par/par_mpi.c
+	@mkdir -p $(dir $@)
+	$(MPICC) $(CFLAGS) $(COV_FLAGS) -MMD -MP -c -o $@ $<
+
+$(COV_DIR)/libwpd.a: $(COV_LIB_OBJ)
+	rm -f $@
+	ar rcs $@ $^
+
+$(COV_DIR)/wpd: $(COV_MAIN_OBJ) $(COV_DIR)/libwpd.a
+	$(CC) $(LDFLAGS) --coverage -o $@ $^ $(LDLIBS)
+
+$(COV_DIR)/wpd-mpi: $(COV_MAIN_OBJ) $(COV_DIR)/mpi/par_mpi.o $(COV_DIR)/libwpd.a
+	$(MPICC) $(LDFLAGS) --coverage -o $@ $^ $(LDLIBS)
+
+$(COV_DIR)/unit_tests: $(COV_TEST_OBJ) $(COV_DIR)/libwpd.a
+	$(CC) $(LDFLAGS) --coverage -o $@ $^ $(LDLIBS)
+
+coverage-build: deps lazperf
+	@$(MAKE) --no-print-directory -j$(JOBS) $(COV_DIR)/wpd $(COV_DIR)/unit_tests \
+	    $(if $(shell command -v $(MPICC)),$(COV_DIR)/wpd-mpi)
+
+coverage: coverage-build
+	find $(COV_DIR) -name '*.gcda' -delete
+	WPD_BIN=$(CURDIR)/$(COV_DIR)/wpd WPD_MPI_BIN=$(CURDIR)/$(COV_DIR)/wpd-mpi \
+	    WPD_UNIT_TESTS=$(COV_DIR)/unit_tests tests/run.sh $(TIER) || true
+	gcovr -r . --object-directory $(COV_DIR) -f src/ -f tools/ \
+	    --json-summary-pretty $(COV_DIR)/$(TIER).json --txt $(COV_DIR)/$(TIER).txt -s
+
+-include $(COV_LIB_OBJ:.o=.d) $(COV_MAIN_OBJ:.o=.d) $(COV_TEST_OBJ:.o=.d) $(COV_DIR)/mpi/par_mpi.d

@@ -6,7 +6,8 @@
 #
 #   fast  (make test)       every e2e test not marked slow
 #   full  (make test-full)  every e2e test
-#   asan  (make test-asan)  the fast tier without the quality checks
+#   asan  (make test-asan)  the fast tier without the quality and peak-memory
+#                           checks
 #
 # The e2e tests not marked serial run on $WPD_TEST_JOBS pytest workers
 # (default: the number of cores), then the serial ones one at a time.
@@ -19,7 +20,7 @@ shift $(($# > 0 ? 1 : 0))
 case $tier in
     fast) select="not slow" ;;
     full) select="" ;;
-    asan) select="not slow and not quality" ;;
+    asan) select="not slow and not quality and not rss" ;;
     *) echo "tests/run.sh: unknown tier '$tier' (fast, full or asan)" >&2; exit 1 ;;
 esac
 jobs=${WPD_TEST_JOBS:-$(nproc)}

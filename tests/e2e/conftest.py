@@ -3,9 +3,9 @@
 Every test runs in a fresh temporary directory of its own (the tests write
 their outputs by relative names). Markers: `slow` (the full tier only: `make
 test-full`), `serial` (peak memory, signals and timing: never beside another
-test), `quality` (numeric quality checks: not repeated under the
-sanitizers). The small real clouds the fast tier runs on are cut once per
-worker process (`nc_cut`)."""
+test), `quality` (numeric quality checks) and `rss` (peak memory), neither
+repeated under the sanitizers. The small real clouds the fast tier runs on
+are cut once per worker process (`nc_cut`)."""
 import os
 import signal
 
@@ -26,7 +26,9 @@ def pytest_configure(config):
     for line in ("slow: the full tier (make test-full): every-scan sweeps, large clouds, "
                  "random-moment signals, MPI at 4 ranks",
                  "serial: measures peak memory, sends signals or times runs: run alone",
-                 "quality: checks quality figures (skipped under the sanitizers)"):
+                 "quality: checks quality figures (not run under the sanitizers)",
+                 "rss: measures peak memory (not run under the sanitizers, whose memory is "
+                 "not the program's)"):
         config.addinivalue_line("markers", line)
 
 

@@ -111,6 +111,7 @@ def test_records_gathered_alike_from_every_format():
 
 
 @pytest.mark.serial
+@pytest.mark.rss
 @pytest.mark.parametrize("n", [400000, slow(1000000)])
 def test_memory_budget_holds_whatever_the_threads(n):
     # Threads beyond the first run only where the budget holds their own

@@ -11,7 +11,7 @@ import pytest
 
 from harness import REPO, Skip, sanitized, slow, wpd
 
-WPD_MPI = os.path.join(REPO, "wpd-mpi")
+WPD_MPI = os.environ.get("WPD_MPI_BIN") or os.path.join(REPO, "wpd-mpi")
 
 
 def launcher():

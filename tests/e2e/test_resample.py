@@ -20,8 +20,7 @@ def scans():
             yield data("scans", row["file"]), int(row["point_count"]), row
 
 
-SMALL_SCANS = ("wpd_conferenceRoom_1_input.ply", "meshlab_rangemap_lato270.ply",
-               "lone-star_tile4.las")
+SMALL_SCANS = ("wpd_conferenceRoom_1_input.ply", "meshlab_rangemap_lato270.ply")
 
 
 def finite_count(path):
