@@ -271,6 +271,6 @@ coverage: coverage-build
 	WPD_BIN=$(CURDIR)/$(COV_DIR)/wpd WPD_MPI_BIN=$(CURDIR)/$(COV_DIR)/wpd-mpi \
 	    WPD_UNIT_TESTS=$(COV_DIR)/unit_tests tests/run.sh $(TIER) || true
 	gcovr -r . --object-directory $(COV_DIR) -f src/ -f tools/ \
-	    --json-summary-pretty $(COV_DIR)/$(TIER).json --txt $(COV_DIR)/$(TIER).txt -s
+	    --json-summary $(COV_DIR)/$(TIER).json --json-summary-pretty --txt $(COV_DIR)/$(TIER).txt -s
 
 -include $(COV_LIB_OBJ:.o=.d) $(COV_MAIN_OBJ:.o=.d) $(COV_TEST_OBJ:.o=.d) $(COV_DIR)/mpi/par_mpi.d

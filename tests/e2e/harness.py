@@ -24,6 +24,16 @@ def sanitized():
                           or b"__ubsan_handle" in blob)
     return _sanitized[0]
 DATA = os.environ.get("WPD_TEST_DATA", os.path.join(REPO, "..", "shared", "data"))
+_coverage = []
+
+
+def coverage_build():
+    """True if the wpd under test writes gcov counts (make coverage): its
+    exit handler allocates, so it cannot outlive a failed allocation."""
+    if not _coverage:
+        with open(WPD, "rb") as f:
+            _coverage.append(b"__gcov_" in f.read())
+    return _coverage[0]
 
 
 # A test that cannot run here (a missing file or tool) raises Skip("why").

@@ -31,7 +31,7 @@ import time
 import pytest
 
 from formats import read_las, read_ply
-from harness import DATA, REPO, WPD, Skip, sanitized
+from harness import DATA, REPO, WPD, Skip, coverage_build, sanitized
 
 # Both paths of `wpd resample`: every fault runs through each.
 PATHS = {"memory": [], "engine": ["--min-tiles", "4"]}
@@ -76,6 +76,9 @@ def interposer(alloc=False):
     allocator must stay the sanitizer's."""
     if sanitized() and alloc:
         raise Skip("wpd is a sanitizer build: allocation faults would replace its allocator")
+    if coverage_build() and alloc:
+        raise Skip("wpd is a coverage build: gcov's exit handler cannot outlive a failed "
+                   "allocation")
     key = "so-io" if sanitized() else "so"
     if key not in _cache:
         cc = os.environ.get("CC", "cc")
