@@ -3,7 +3,7 @@
 
 CC      ?= gcc
 CFLAGS  ?= -O2 -g
-CFLAGS  += -std=c11 -D_GNU_SOURCE -Wall -Wextra -fopenmp -Isrc -Itools
+CFLAGS  += -std=c11 -D_GNU_SOURCE -Wall -Wextra -fopenmp -Isrc -I.
 LDLIBS  += -lzstd -lpng -lm
 LDFLAGS += -fopenmp
 PREFIX  ?= /usr/local
@@ -11,7 +11,8 @@ PREFIX  ?= /usr/local
 # Every .c under src/ and tools/ except the program entry point and the MPI
 # ranks goes into a static library shared by the program and the unit tests
 # (with the one-rank src/par/par_single.c).
-LIB_SRC  := $(filter-out src/cli/main.c src/par/par_mpi.c,$(wildcard src/*/*.c tools/*.c))
+LIB_SRC  := $(filter-out src/cli/main.c src/par/par_mpi.c,\
+              $(wildcard src/*/*.c src/*/*/*.c tools/*/*.c))
 LIB_OBJ  := $(LIB_SRC:%.c=build/%.o)
 MAIN_OBJ := build/src/cli/main.o
 TEST_SRC := $(wildcard tests/unit/*.c)
@@ -139,11 +140,14 @@ FUZZ_CFLAGS     := -O1 -g -fno-omit-frame-pointer -std=c11 -D_GNU_SOURCE -Wall -
                    -Isrc $(FUZZ_SAN)
 # Only what the readers need, compiled without OpenMP (the readers are
 # serial; clang's -fopenmp would need libomp-dev for nothing).
-FUZZ_LIB_SRC    := src/io/reader.c src/io/las_read.c src/io/las_schema.c src/io/ply_read.c \
-                   src/io/ply_header.c src/io/laz_vlr.c src/io/laz_read.c src/io/laz_items.c src/io/laz_layered.c src/io/laz_point14.c src/io/laz_items14.c \
-                   src/io/laz_encoder.c src/io/laz_items_enc.c src/io/laz_point14_enc.c \
-                   src/io/laz_coder.c src/io/ply_stream.c src/io/decimal.c src/io/schema.c src/io/batch.c \
-                   src/io/record_cache.c \
+FUZZ_LIB_SRC    := src/io/reader.c src/io/schema.c src/io/batch.c src/io/record_cache.c \
+                   src/io/decimal.c \
+                   src/io/las/las_read.c src/io/las/las_schema.c \
+                   src/io/laz/laz_vlr.c src/io/laz/laz_read.c src/io/laz/laz_items.c \
+                   src/io/laz/laz_layered.c src/io/laz/laz_point14.c src/io/laz/laz_items14.c \
+                   src/io/laz/laz_encoder.c src/io/laz/laz_items_enc.c \
+                   src/io/laz/laz_point14_enc.c src/io/laz/laz_coder.c \
+                   src/io/ply/ply_read.c src/io/ply/ply_header.c src/io/ply/ply_stream.c \
                    src/common/error.c src/common/fullio.c src/common/warnings.c
 FUZZ_LIB_OBJ    := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/%.o)
 # The spill codec is pure (no I/O, no threads): its two files and errors.

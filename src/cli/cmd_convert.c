@@ -5,7 +5,7 @@
 #include "io/layout.h"
 #include "io/writer.h"
 #include "resample/budget.h"
-#include "resample/pass.h"
+#include "io/pass.h"
 
 #include <getopt.h>
 #include <omp.h>

@@ -4,9 +4,9 @@
 #include "common/outfile.h"
 #include "common/printable.h"
 #include "io/cloud.h"
-#include "io/las.h"
-#include "io/laz.h"
-#include "resample/pass.h"
+#include "io/las/las.h"
+#include "io/laz/laz.h"
+#include "io/pass.h"
 
 #include <getopt.h>
 #include <omp.h>

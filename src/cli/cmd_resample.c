@@ -9,10 +9,10 @@
 #include "common/tmpdir.h"
 #include "io/cloud.h"
 #include "io/layout.h"
-#include "metrics.h"
+#include "tools/metrics/metrics.h"
 #include "resample/classes.h"
 #include "resample/resample.h"
-#include "wpd/smooth.h"
+#include "method/smooth.h"
 
 #include <errno.h>
 #include <getopt.h>

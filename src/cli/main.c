@@ -1,9 +1,9 @@
 /* main.c - the wpd command: dispatch to subcommands. */
 #include "cli/commands.h"
-#include "edges.h"
-#include "metrics.h"
-#include "preview.h"
-#include "synth.h"
+#include "tools/edges/edges.h"
+#include "tools/metrics/metrics.h"
+#include "tools/preview/preview.h"
+#include "tools/synth/synth.h"
 
 #include <malloc.h>
 #include <signal.h>

@@ -8,7 +8,7 @@
 
 #include "common/bytes.h"
 #include "common/testhook.h"
-#include "io/laz.h"
+#include "io/laz/laz.h"
 #include "io/layout.h"
 #include "resample/resample.h"
 

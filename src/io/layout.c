@@ -1,6 +1,6 @@
 #include "io/layout.h"
 
-#include "io/las.h"
+#include "io/las/las.h"
 
 #include <stdarg.h>
 #include <math.h>

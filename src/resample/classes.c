@@ -13,7 +13,7 @@
 #include <string.h>
 
 #include "resample/budget.h"
-#include "resample/pass.h"
+#include "io/pass.h"
 
 #define NCLASSES (WPD_CLASS_MAX + 1)
 

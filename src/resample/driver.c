@@ -12,8 +12,8 @@
 #include "resample/budget.h"
 #include "resample/run.h"
 #include "core/knn.h"
-#include "wpd/ladder.h"
-#include "wpd/radius.h"
+#include "method/ladder.h"
+#include "method/radius.h"
 
 static uint32_t record_size_of(const wpd_cloud *cloud)
 {

@@ -11,7 +11,7 @@
 #include "core/select.h"
 #include "core/sort.h"
 #include "spill/blobs.h"
-#include "wpd/eliminate.h"
+#include "method/eliminate.h"
 
 static int half_of(const wpd_tile_samples *s, size_t i)
 {

@@ -31,8 +31,8 @@
 #include "core/grid.h"
 #include "core/knn.h"
 #include "core/sort.h"
-#include "wpd/refine.h"
-#include "wpd/sharp.h"
+#include "method/refine.h"
+#include "method/sharp.h"
 
 enum { MAX_ROUNDS = 10000 }; /* each round settles a point: only a bug gets here */
 

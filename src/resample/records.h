@@ -4,7 +4,7 @@
 #ifndef WPD_RECORDS_H
 #define WPD_RECORDS_H
 
-#include "resample/pass.h"
+#include "io/pass.h"
 #include "resample/resample.h"
 
 /* The output points of batch pb from its point *at on, at most a buffer's

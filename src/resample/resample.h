@@ -39,7 +39,7 @@
 #include "spill/run_merge.h"
 #include "spill/runs.h"
 #include "spill/spill.h"
-#include "wpd/params.h"
+#include "method/params.h"
 
 typedef struct wpd_resample_options {
     uint64_t target;          /* n (>= 1) */

@@ -18,7 +18,7 @@
 #include "resample/tiles.h"
 #include "spill/runs.h"
 #include "core/grid.h"
-#include "wpd/poisson.h"
+#include "method/poisson.h"
 
 /* The samples one tile accepted. */
 typedef struct wpd_tile_samples {

@@ -8,8 +8,8 @@
 #include <string.h>
 
 #include "par/par.h"
-#include "resample/pass.h"
-#include "wpd/ladder.h"
+#include "io/pass.h"
+#include "method/ladder.h"
 
 /* Both passes compute sums and sets, which do not depend on the order of
  * the points nor on which thread counts which: an unordered pass (pass.h)

@@ -25,7 +25,7 @@
 #include "common/progress.h"
 #include "io/cloud.h"
 #include "par/par.h"
-#include "wpd/radius.h"
+#include "method/radius.h"
 
 #define WPD_SCAN_GRID 128
 #define WPD_SCAN_PAPER_CELLS (1u << 24) /* a bit each, per thread */

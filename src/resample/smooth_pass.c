@@ -16,7 +16,7 @@
 
 #include "core/grid.h"
 #include "core/knn.h"
-#include "wpd/smooth.h"
+#include "method/smooth.h"
 
 static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {

@@ -15,7 +15,7 @@
 
 #include "common/testhook.h"
 #include "resample/budget.h"
-#include "resample/pass.h"
+#include "io/pass.h"
 
 /* Whether p, inside t's box, is at least m from each of its faces. */
 static int deep_inside(const wpd_tile *t, const double p[3], double m)

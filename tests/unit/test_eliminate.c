@@ -7,8 +7,8 @@
 
 #include "core/hash.h"
 #include "harness.h"
-#include "wpd/eliminate.h"
-#include "wpd/poisson.h"
+#include "method/eliminate.h"
+#include "method/poisson.h"
 
 static double unit(uint64_t *state)
 {

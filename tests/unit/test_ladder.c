@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "harness.h"
-#include "wpd/ladder.h"
+#include "method/ladder.h"
 
 /* The next number of a linear congruential sequence, in [0, 1): the
  * tests' clouds, the same from run to run. */

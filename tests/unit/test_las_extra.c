@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "harness.h"
-#include "io/las.h"
+#include "io/las/las.h"
 
 /* A LAS 1.2 header of point format 0 with `extra` extra bytes and, when
  * ndesc > 0, an Extra Bytes VLR of those descriptors (copied). */

@@ -8,7 +8,7 @@
 
 #include "common/printable.h"
 #include "common/warnings.h"
-#include "io/las.h"
+#include "io/las/las.h"
 #include "io/reader.h"
 
 #include <math.h>

@@ -8,8 +8,8 @@
 #include "harness.h"
 #include "las_files.h"
 
-#include "io/laz.h"
-#include "io/laz_encoder.h"
+#include "io/laz/laz.h"
+#include "io/laz/laz_encoder.h"
 #include "io/reader.h"
 
 #include <fcntl.h>

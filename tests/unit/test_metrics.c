@@ -3,7 +3,7 @@
  * hexagonal lattices (placed on a tilted plane far from the origin, as
  * georeferenced data is), degenerate clouds, and the authors' sample pair. */
 #include "harness.h"
-#include "metrics.h"
+#include "tools/metrics/metrics.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -6,7 +6,7 @@
 
 #include "io/cloud.h"
 #include "resample/budget.h"
-#include "resample/pass.h"
+#include "io/pass.h"
 
 #include <math.h>
 #include <stdint.h>

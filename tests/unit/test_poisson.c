@@ -13,8 +13,8 @@
 #include "core/hash.h"
 #include "core/knn.h"
 #include "harness.h"
-#include "wpd/poisson.h"
-#include "wpd/sharp.h"
+#include "method/poisson.h"
+#include "method/sharp.h"
 
 static double box_box_dist(const box *a, const box *b)
 {

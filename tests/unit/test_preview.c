@@ -4,7 +4,7 @@
  * errors (missing input, existing output) leaving no file behind, and
  * byte-identical output for the same input whatever the thread count. */
 #include "harness.h"
-#include "preview.h"
+#include "tools/preview/preview.h"
 
 #include <dirent.h>
 #include <math.h>

@@ -14,9 +14,9 @@
 #include "core/knn.h"
 #include "harness.h"
 #include "io/cloud.h"
-#include "synth.h"
-#include "wpd/crease.h"
-#include "wpd/sharp.h"
+#include "tools/synth/synth.h"
+#include "method/crease.h"
+#include "method/sharp.h"
 
 static void detect(const double *xyz, size_t n, double cap, int threads, uint8_t *edge)
 {

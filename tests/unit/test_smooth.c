@@ -11,10 +11,10 @@
 #include "core/hash.h"
 #include "core/knn.h"
 #include "harness.h"
-#include "wpd/poisson.h"
-#include "wpd/smooth.h"
-#include "wpd/smooth_guard.h"
-#include "wpd/smooth_surface.h"
+#include "method/poisson.h"
+#include "method/smooth.h"
+#include "method/smooth_guard.h"
+#include "method/smooth_surface.h"
 
 static double unit(uint64_t *state)
 {

@@ -12,10 +12,10 @@
 #include "core/hash.h"
 #include "core/knn.h"
 #include "harness.h"
-#include "wpd/poisson.h"
-#include "wpd/smooth.h"
-#include "wpd/smooth_even.h"
-#include "wpd/smooth_guard.h"
+#include "method/poisson.h"
+#include "method/smooth.h"
+#include "method/smooth_even.h"
+#include "method/smooth_guard.h"
 
 static double unit(uint64_t *state)
 {

@@ -12,7 +12,7 @@
 #include <unistd.h>
 
 #include "io/reader.h"
-#include "synth.h"
+#include "tools/synth/synth.h"
 
 /* ------------------------------------------------------------ helpers */
 

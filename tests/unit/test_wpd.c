@@ -14,15 +14,15 @@
 #include "core/pca.h"
 #include "core/voronoi.h"
 #include "harness.h"
-#include "wpd/ladder.h"
-#include "wpd/poisson.h"
-#include "wpd/radius.h"
-#include "wpd/refine.h"
-#include "wpd/sharp.h"
-#include "wpd/smooth.h"
+#include "method/ladder.h"
+#include "method/poisson.h"
+#include "method/radius.h"
+#include "method/refine.h"
+#include "method/sharp.h"
+#include "method/smooth.h"
 #include "io/cloud.h"
 #include "resample/resample.h"
-#include "wpd/params.h"
+#include "method/params.h"
 
 static double unit(uint64_t *state)
 {

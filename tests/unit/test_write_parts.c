@@ -9,7 +9,7 @@
 #include "harness.h"
 #include "las_files.h"
 
-#include "io/laz.h"
+#include "io/laz/laz.h"
 #include "io/reader.h"
 #include "io/writer.h"
 

@@ -1,0 +1,394 @@
+/* smooth_guard.c - spacing and coverage limits on smoothing moves. */
+#include "method/smooth_guard.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/knn.h"
+
+/* Poisson distance of samples a and b, in units of r: the mean of their
+ * radii (1, or 1/2 for a sharp-feature sample), as in the Poisson pass. */
+static double pair_radius(const uint8_t *half, size_t a, size_t b)
+{
+    if (!half)
+        return 1;
+    return 0.5 * ((half[a] ? 0.5 : 1) + (half[b] ? 0.5 : 1));
+}
+
+/* Current position of sample (or context sample) id. */
+static const double *near_pos(const wpd_spacing_guard *g, uint32_t id)
+{
+    return g->pos + 3 * (size_t)id;
+}
+
+double wpd_spacing_reach(const wpd_spacing_guard *g)
+{
+    return WPD_SMOOTH_KEEP * g->r + g->margin + 2 * g->step_max;
+}
+
+/* The longest step a sample may take against a neighbour with slack S
+ * (distance minus floor) that plans steps up to cap: rule (b). */
+static double allowance(double slack, double cap)
+{
+    return fmax(0.5 * slack, slack - cap);
+}
+
+void wpd_spacing_gather(const wpd_spacing_guard *g, size_t o, const double p[3],
+                        wpd_spacing_near *near)
+{
+    double reach = wpd_spacing_reach(g), d2[WPD_KNN_MAX];
+    near->o = o;
+    memcpy(near->p, p, sizeof near->p);
+    near->n = wpd_knn(g->grid, p, WPD_KNN_MAX, (uint32_t)o, reach, reach, near->id, d2);
+    for (int j = 0; j < near->n; j++)
+        near->d[j] = sqrt(d2[j]);
+}
+
+int wpd_spacing_allows(const wpd_spacing_guard *g, const wpd_spacing_near *near,
+                       const double q[3])
+{
+    const double *p = near->p;
+    double step = sqrt((q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) +
+                       (q[2] - p[2]) * (q[2] - p[2]));
+    if (step > g->cap[near->o])
+        return 0;
+    for (int j = 0; j < near->n; j++) {
+        uint32_t id = near->id[j];
+        double floor = WPD_SMOOTH_KEEP * g->r * pair_radius(g->half, near->o, id) + g->margin;
+        double cap = id < g->n ? g->cap[id] : 0; /* context samples stay */
+        if (step <= allowance(near->d[j] - floor, cap))
+            continue; /* (b) */
+        const double *pj = near_pos(g, id); /* (a) */
+        double dq = 0;
+        for (int a = 0; a < 3; a++)
+            dq += (q[a] - pj[a]) * (q[a] - pj[a]);
+        if (dq < (floor + cap) * (floor + cap))
+            return 0;
+    }
+    /* The query stops at WPD_KNN_MAX samples: any other one is at least as
+     * far as the last, and plans at most step_max. */
+    if (near->n == WPD_KNN_MAX) {
+        double last = near->d[near->n - 1], floor = WPD_SMOOTH_KEEP * g->r + g->margin;
+        if (step > allowance(last - floor, g->step_max) && last - step < floor + g->step_max)
+            return 0;
+    }
+    return 1;
+}
+
+/* Owner of a point when there is no sample at all (sample indices stay
+ * below it: a block holds fewer than 2^31 samples). */
+#define NO_OWNER (WPD_COVER_KEEP - 1)
+
+/* Nearest sample of one input point x (ties to the lower index, as wpd_knn
+ * orders them) into *owner and B(x) into *bound, given d2/id, its best
+ * candidate so far (beyond tau: ask the grid). B is stored as a float
+ * rounded up (the factor exceeds float rounding), so the point stays within
+ * its bound of where its sample starts. */
+static void set_owner(const wpd_grid *samples, const double x[3], double tau, double d2,
+                      uint32_t id, uint32_t *owner, float *bound)
+{
+    double b = tau;
+    if (d2 > tau * tau) {
+        /* The nearest may lie outside the candidates, but no farther than
+         * the best of them: one box of that size settles it. */
+        double hint = isinf(d2) ? 2 * tau : sqrt(d2) * (1 + 1e-9);
+        if (wpd_knn(samples, x, 1, WPD_NO_SELF, INFINITY, hint, &id, &d2) < 1) {
+            *owner = NO_OWNER; /* no sample at all */
+            *bound = INFINITY;
+            return;
+        }
+        b = d2 > tau * tau ? sqrt(d2) : tau;
+    }
+    *owner = id;
+    *bound = (float)(b * (1 + 0x1p-21));
+}
+
+enum { GROUP_CANDIDATES = 256, GROUP_POINTS = 128, BLOCK_POINTS = 4096 };
+
+/* Candidates for a group of input points inside the box [lo, hi]: the
+ * sample slots within tau of the box. Returns how many, or -1 if more than
+ * GROUP_CANDIDATES. */
+static int group_candidates(const wpd_grid *samples, const double lo[3], const double hi[3],
+                            double tau, uint32_t *cand)
+{
+    double c[3], half = 0;
+    for (int a = 0; a < 3; a++) {
+        c[a] = 0.5 * (lo[a] + hi[a]);
+        half = fmax(half, 0.5 * (hi[a] - lo[a]));
+    }
+    int nc = 0;
+    int64_t blo[3], bhi[3];
+    if (!wpd_grid_box(samples, c, half + tau, blo, bhi))
+        return 0;
+    for (int64_t q = blo[1]; q <= bhi[1]; q++)
+        for (int64_t p = blo[0]; p <= bhi[0]; p++) {
+            uint32_t sb, se;
+            wpd_grid_column_slots(samples, p, q, blo[2], bhi[2], &sb, &se);
+            if (nc + (int)(se - sb) > GROUP_CANDIDATES)
+                return -1;
+            for (uint32_t t = sb; t < se; t++)
+                cand[nc++] = t;
+        }
+    return nc;
+}
+
+/* A group's candidates side by side, one array per coordinate, padded to
+ * whole lane groups with samples at infinity (the ids as doubles, exact:
+ * the lanes compare them with the distances). */
+enum { OWNER_LANES = 4 };
+typedef struct group_cands {
+    int n;  /* candidates, then padding up to a multiple of OWNER_LANES */
+    double x[GROUP_CANDIDATES + OWNER_LANES], y[GROUP_CANDIDATES + OWNER_LANES],
+        z[GROUP_CANDIDATES + OWNER_LANES], id[GROUP_CANDIDATES + OWNER_LANES];
+} group_cands;
+
+/* The candidate nearest to x by (squared distance, index) into *d2 and
+ * *id: INFINITY and UINT32_MAX without one. Each lane keeps its own best
+ * and the lanes are merged at the end, all without branches: the
+ * candidates come in no useful order, and a compare-and-branch loop
+ * mispredicted often. */
+static void nearest_of_group(const group_cands *c, const double *x, double *d2, uint32_t *id)
+{
+    double bd[OWNER_LANES], bi[OWNER_LANES];
+    for (int k = 0; k < OWNER_LANES; k++)
+        bd[k] = INFINITY, bi[k] = (double)UINT32_MAX;
+    for (int j = 0; j < c->n; j += OWNER_LANES) {
+#pragma omp simd
+        for (int k = 0; k < OWNER_LANES; k++) {
+            double dx = c->x[j + k] - x[0], dy = c->y[j + k] - x[1], dz = c->z[j + k] - x[2];
+            double d = dx * dx + dy * dy + dz * dz, i = c->id[j + k];
+            int take = (d < bd[k]) | ((d == bd[k]) & (i < bi[k]));
+            bd[k] = take ? d : bd[k];
+            bi[k] = take ? i : bi[k];
+        }
+    }
+    for (int k = 1; k < OWNER_LANES; k++)
+        if (bd[k] < bd[0] || (bd[k] == bd[0] && bi[k] < bi[0]))
+            bd[0] = bd[k], bi[0] = bi[k];
+    *d2 = bd[0];
+    *id = (uint32_t)bi[0];
+}
+
+/* Owners and bounds of the input points in slots b..e-1, inside [lo, hi].
+ * The points share their candidates, gathered once and copied side by side
+ * (a point with no candidate within tau, in a hole, asks the grid). */
+static void owners_of_group(const wpd_grid *samples, const wpd_grid *surface, uint32_t b,
+                            uint32_t e, const double lo[3], const double hi[3], double tau,
+                            uint32_t *owner, float *bound)
+{
+    uint32_t cand[GROUP_CANDIDATES];
+    group_cands c;
+    int nc = group_candidates(samples, lo, hi, tau, cand);
+    for (c.n = 0; c.n < nc; c.n++) {
+        const double *q = samples->xyz + 3 * (size_t)cand[c.n];
+        c.x[c.n] = q[0], c.y[c.n] = q[1], c.z[c.n] = q[2];
+        c.id[c.n] = samples->id[cand[c.n]];
+    }
+    for (; c.n % OWNER_LANES; c.n++)
+        c.x[c.n] = c.y[c.n] = c.z[c.n] = INFINITY, c.id[c.n] = (double)UINT32_MAX;
+    for (uint32_t s = b; s < e; s++) {
+        const double *x = surface->xyz + 3 * (size_t)s;
+        double best;
+        uint32_t id;
+        nearest_of_group(&c, x, &best, &id);
+        set_owner(samples, x, tau, best, id, owner + s, bound + s);
+    }
+}
+
+/* Owners of the input points in slots b..e-1. The input is some 20 times
+ * the samples, and this is most of the cost of the coverage: consecutive
+ * slots (neighbours in space: the grid's order) are taken in groups that
+ * fit in a box of tau/2 and share one candidate search. */
+static void owners_of_block(const wpd_grid *samples, const wpd_grid *surface, uint32_t b,
+                            uint32_t e, double tau, uint32_t *owner, float *bound)
+{
+    while (b < e) {
+        const double *x = surface->xyz + 3 * (size_t)b;
+        double lo[3] = {x[0], x[1], x[2]}, hi[3] = {x[0], x[1], x[2]};
+        uint32_t t = b + 1;
+        for (; t < e && t - b < GROUP_POINTS; t++) {
+            const double *y = surface->xyz + 3 * (size_t)t;
+            double l[3], h[3], extent = 0;
+            for (int a = 0; a < 3; a++) { /* not fmin and fmax: calls, here */
+                l[a] = y[a] < lo[a] ? y[a] : lo[a];
+                h[a] = y[a] > hi[a] ? y[a] : hi[a];
+                extent = h[a] - l[a] > extent ? h[a] - l[a] : extent;
+            }
+            if (extent > 0.5 * tau)
+                break;
+            memcpy(lo, l, sizeof lo);
+            memcpy(hi, h, sizeof hi);
+        }
+        owners_of_group(samples, surface, b, t, lo, hi, tau, owner, bound);
+        b = t;
+    }
+}
+
+int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, size_t n,
+                   size_t nctx, double tau, int threads, wpd_error *err)
+{
+    memset(c, 0, sizeof *c);
+    c->n = n;
+    c->surface = surface;
+    size_t m = surface->n ? surface->n : 1;
+    c->bound = malloc(m * sizeof *c->bound);
+    c->owner = malloc(m * sizeof *c->owner);
+    c->first = malloc((n + 2) * sizeof *c->first);
+    wpd_grid g = {0};
+    if (!c->bound || !c->owner || !c->first) {
+        wpd_cover_free(c);
+        return wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu input points", m);
+    }
+    /* Cells of about the spacing: the nearest sample of a covered point is
+     * within tau, so a point's candidates lie in a few cells. */
+    if (wpd_grid_build(&g, start, NULL, n + nctx, tau > 0 ? tau : 1, threads, err)) {
+        wpd_cover_free(c);
+        return -1;
+    }
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (size_t b = 0; b < surface->n; b += BLOCK_POINTS)
+        owners_of_block(&g, surface, (uint32_t)b,
+                        (uint32_t)(surface->n - b < BLOCK_POINTS ? surface->n : b + BLOCK_POINTS),
+                        tau, c->owner, c->bound);
+    wpd_grid_free(&g);
+    return 0;
+}
+
+void wpd_cover_free(wpd_cover *c)
+{
+    free(c->bound);
+    free(c->owner);
+    free(c->first);
+    free(c->slot);
+    memset(c, 0, sizeof *c);
+}
+
+/* 1 if a sample at p keeps input point x within its bound b: the one test
+ * behind both the trust from a sample's ends and what its moves keep
+ * (wpd_cover_holds), so the two judge a place alike. */
+static int keeps(const double p[3], const double x[3], double b)
+{
+    double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
+    return !(dx * dx + dy * dy + dz * dz > b * b);
+}
+
+/* Whether sample i, at distance d from input point x (bound b), keeps x
+ * within b wherever it goes this iteration: its cap says so, or each of
+ * its possible ends does (where the guard has them). */
+static int trusted(const wpd_cover *c, const wpd_spacing_guard *g, uint32_t i, double d,
+                   const double x[3], double b)
+{
+    const wpd_step_ends *ends = g->ends;
+    double cap = i < c->n ? g->cap[i] : 0; /* context samples stay */
+    if (d + cap <= b)
+        return 1;
+    if (!ends || i >= c->n || d > b)
+        return 0;
+    const double *e = ends->xyz + 3 * (size_t)i * (size_t)ends->per;
+    for (int j = 0; j < ends->count[i]; j++, e += 3)
+        if (!keeps(e, x, b))
+            return 0;
+    return 1;
+}
+
+/* Whether input point s needs a keeper this iteration: its owner, or the
+ * nearer of its two nearest samples, may be trusted to keep it within its
+ * bound (trusted). Updates owner[s]. */
+static void look_after(wpd_cover *c, const wpd_spacing_guard *g, const double *pos, size_t s)
+{
+    uint32_t i = c->owner[s] & ~WPD_COVER_KEEP;
+    if (i == NO_OWNER)
+        return;
+    c->owner[s] = i;
+    /* An owner that stays (cap 0, or a context sample) is trusted without
+     * a look at the point: it lies within B(x) of x (the invariant). Most
+     * samples stay in a step - in vegetation, and where no move pays -
+     * and this spares reading the point and its owner. */
+    if (i >= c->n || g->cap[i] <= 0)
+        return;
+    const double *x = c->surface->xyz + 3 * s;
+    double b = c->bound[s];
+    const double *p = pos + 3 * (size_t)i;
+    double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
+    if (trusted(c, g, i, sqrt(dx * dx + dy * dy + dz * dz), x, b))
+        return;
+    uint32_t nb[2];
+    double d2[2];
+    int got = wpd_knn(g->grid, x, 2, WPD_NO_SELF, INFINITY, b, nb, d2);
+    for (int j = 0; j < got; j++)
+        if (trusted(c, g, nb[j], sqrt(d2[j]), x, b)) {
+            c->owner[s] = nb[j];
+            return;
+        }
+    /* The nearest is within the bound (the invariant) and keeps it; a
+     * context sample, which stays, only fails the test above by rounding. */
+    if (got > 0)
+        c->owner[s] = nb[0] < c->n ? nb[0] | WPD_COVER_KEEP : nb[0];
+}
+
+/* The points each sample keeps, in slot order (whatever the threads). */
+static int group_kept(wpd_cover *c)
+{
+    size_t n = c->n, npts = c->surface->n, m = 0;
+    memset(c->first, 0, (n + 2) * sizeof *c->first);
+    for (size_t s = 0; s < npts; s++)
+        if (c->owner[s] & WPD_COVER_KEEP) {
+            c->first[(c->owner[s] & ~WPD_COVER_KEEP) + 2]++;
+            m++;
+        }
+    for (size_t o = 0; o < n; o++)
+        c->first[o + 2] += c->first[o + 1];
+    if (m > c->cap) {
+        uint32_t *grown = realloc(c->slot, m * sizeof *grown);
+        if (!grown)
+            return -1;
+        c->slot = grown;
+        c->cap = m;
+    }
+    /* first[o + 1] runs as the fill cursor of o; it ends as o's end. */
+    for (size_t s = 0; s < npts; s++)
+        if (c->owner[s] & WPD_COVER_KEEP)
+            c->slot[c->first[(c->owner[s] & ~WPD_COVER_KEEP) + 1]++] = (uint32_t)s;
+    return 0;
+}
+
+int wpd_cover_update(wpd_cover *c, const wpd_spacing_guard *guard, const double *pos,
+                     int threads, wpd_error *err)
+{
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 4096)
+    for (size_t s = 0; s < c->surface->n; s++)
+        look_after(c, guard, pos, s);
+    if (group_kept(c))
+        return wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu input points",
+                        c->surface->n);
+    return 0;
+}
+
+double wpd_cover_limit(const wpd_cover *c, size_t o, const double p[3], const double m[3])
+{
+    double mm = m[0] * m[0] + m[1] * m[1] + m[2] * m[2], t = 1;
+    if (mm <= 0)
+        return 1;
+    for (uint32_t a = c->first[o]; a < c->first[o + 1]; a++) {
+        const double *x = c->surface->xyz + 3 * (size_t)c->slot[a];
+        double w[3] = {p[0] - x[0], p[1] - x[1], p[2] - x[2]};
+        double wm = w[0] * m[0] + w[1] * m[1] + w[2] * m[2];
+        double b = c->bound[c->slot[a]];
+        double excess = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] - b * b;
+        if (excess > 0)
+            return 0;
+        /* |w + t m|^2 <= b^2 holds from t = 0 up to the larger root. */
+        double root = (-wm + sqrt(wm * wm - mm * excess)) / mm;
+        t = fmin(t, root);
+    }
+    return t > 0 ? t : 0;
+}
+
+int wpd_cover_holds(const wpd_cover *c, size_t o, const double p[3])
+{
+    for (uint32_t a = c->first[o]; a < c->first[o + 1]; a++)
+        if (!keeps(p, c->surface->xyz + 3 * (size_t)c->slot[a], c->bound[c->slot[a]]))
+            return 0;
+    return 1;
+}
