@@ -4,7 +4,7 @@
 #include "cli/commands.h"
 #include "cli/report.h"
 #include "cli/run_ranks.h"
-#include "cli/selection.h"
+#include "resample/output.h"
 #include "common/outfile.h"
 #include "common/tmpdir.h"
 #include "io/cloud.h"
@@ -366,106 +366,13 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
            o->params.threads > 0 ? o->params.threads : omp_get_max_threads());
 }
 
-/* The records source of a plain run: its runs merged in global-index
- * order (src: the result). */
-static int records_of_run(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
-                          wpd_progress *progress, wpd_sample_sink sink, void *arg,
-                          wpd_error *err)
-{
-    wpd_resample_result *res = src;
-    wpd_run_merge *m;
-    if (wpd_run_merge_open(res->samples, WPD_RUN_MERGE_BUDGET, &m, err))
-        return -1;
-    int rc = wpd_resample_stream_records(cloud, m, mem_bytes, threads, progress, sink, arg, err);
-    wpd_run_merge_close(m);
-    return rc;
-}
-
-/* The records source of one share of a plain run's samples (src: the
- * result, whose scan counted the points of each unit). */
-static int records_share_of_run(void *src, wpd_cloud *cloud, uint64_t first, uint64_t count,
-                                size_t mem_bytes, int threads, wpd_progress *progress,
-                                wpd_sample_sink sink, void *arg, wpd_error *err)
-{
-    wpd_resample_result *res = src;
-    wpd_run_merge *m;
-    if (wpd_run_merge_open(res->samples, WPD_RUN_MERGE_BUDGET, &m, err))
-        return -1;
-    int rc = wpd_resample_stream_share(cloud, m, first, count, res->unit_points, res->nunits,
-                                       mem_bytes, threads, progress, sink, arg, err);
-    wpd_run_merge_close(m);
-    return rc;
-}
-
-/* The records source of a run by class (src: the class result). */
-static int records_by_class(void *src, wpd_cloud *cloud, size_t mem_bytes, int threads,
-                            wpd_progress *progress, wpd_sample_sink sink, void *arg,
-                            wpd_error *err)
-{
-    return wpd_class_stream_records(cloud, src, mem_bytes, threads, progress, sink, arg, err);
-}
-
-/* Writes the outputs, each finished under its temporary name in files[]
- * (one per input with --per-input), reading the records once more: under
- * the classes' filter for a run by class (its global indices count the
- * points not dropped). */
-static int write_outputs(const wpd_selection *sel, wpd_cloud *cloud, resample_options *o,
-                         wpd_outfile *files, int *writers, wpd_error *err)
-{
-    char dir[1024];
-    wpd_selection_target target = {o->output, o->per_input, &o->write, o->mem_bytes,
-                                   o->params.threads, &o->progress, o->par,
-                                   spill_dir(o, dir, sizeof dir)};
-    /* Every rank writes its share where the source allows; else rank 0
-     * writes alone (docs/scale-out.md). */
-    *writers = wpd_selection_shared(sel, &target) ? wpd_par_ranks(o->par) : 1;
-    if (*writers > 1)
-        return wpd_selection_write_shared(sel, cloud, &target, files, err);
-    return wpd_par_rank(o->par) == 0 ? wpd_selection_write(sel, cloud, &target, files, err) : 0;
-}
-
-/* The outputs (files[0..nout-1]) and the report (files[nout]) of a run,
- * finished under temporary names until they are renamed together. */
-typedef struct pending_files {
-    wpd_outfile *files;
-    int nout;
-    int tracked;              /* the --per-input folder's temporary outputs */
-} pending_files;
-
-static int pending_open(pending_files *p, const wpd_cloud *cloud, const resample_options *o,
-                        wpd_error *err)
-{
-    p->nout = o->per_input ? wpd_cloud_nfiles(cloud) : 1;
-    p->files = malloc((size_t)(p->nout + 1) * sizeof *p->files);
-    if (!p->files)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory for %d outputs", p->nout);
-    wpd_outfile_clear_all(p->files, p->nout + 1);
-    /* More finished outputs than the signal handlers' registry holds one
-     * by one: they are removed as "this process's temporary outputs in
-     * the folder". Without a slot, the next run's sweep removes them. */
-    p->tracked = o->per_input && wpd_tmpdir_track_outputs(o->per_input) == 0;
-    return 0;
-}
-
-/* Removes what was not renamed. */
-static void pending_close(pending_files *p, const resample_options *o)
-{
-    if (!p->files)
-        return;
-    wpd_outfile_abort_all(p->files, p->nout + 1);
-    if (p->tracked)
-        wpd_tmpdir_untrack_outputs(o->per_input);
-    free(p->files);
-    p->files = NULL;
-}
-
 /* After the outputs are written: the metrics, the report, then every file
  * renamed into place. The report is written and finished (flushed, closed)
  * before any rename, so that one that cannot be written (disk full, data
  * lost at fsync or close) fails the run with no output in place; it is
  * renamed last, after the outputs it describes. */
 static int deliver(wpd_run_info *info, char **metrics_json, const wpd_selection *sel,
-                   pending_files *p, const resample_options *o, wpd_error *err)
+                   wpd_output_files *p, const resample_options *o, wpd_error *err)
 {
     if (o->metrics && measure(info->inputs, info->ninputs, sel, o, metrics_json, err))
         return -1;
@@ -482,35 +389,6 @@ static int deliver(wpd_run_info *info, char **metrics_json, const wpd_selection 
     /* The files are in place and complete: a summary that is lost still
      * fails the run, so that it is not lost unseen. */
     return wpd_stdout_flush(err);
-}
-
-/* Refuses, before any work, outputs that exist (without --force) or that
- * are inputs. */
-static int check_outputs(char **inputs, int ninputs, const resample_options *o, wpd_error *err)
-{
-    struct stat st;
-    for (int i = 0; i < (o->output ? 1 : ninputs); i++) {
-        char path[2048];
-        if (o->output)
-            snprintf(path, sizeof path, "%s", o->output);
-        else
-            wpd_per_input_path(o->per_input, inputs[i], path, sizeof path);
-        if (wpd_path_is_one_of(path, inputs, ninputs))
-            return wpd_fail(err, WPD_E_USAGE, "%s: output is also an input", path);
-        if (!o->write.overwrite && stat(path, &st) == 0)
-            return wpd_fail(err, WPD_E_USAGE, "%s: output exists (use --force to replace it)",
-                            path);
-        /* Inputs of the same name in different folders: one output would
-         * silently replace the other (outputs are renamed in together). */
-        for (int j = 0; o->per_input && j < i; j++) {
-            char other[2048];
-            wpd_per_input_path(o->per_input, inputs[j], other, sizeof other);
-            if (!strcmp(path, other))
-                return wpd_fail(err, WPD_E_USAGE, "%s: inputs %s and %s would both write it",
-                                path, inputs[j], inputs[i]);
-        }
-    }
-    return 0;
 }
 
 /* The run by class (resample/classes.h): -n is the count of the classes
@@ -542,7 +420,7 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
     wpd_cloud *cloud = NULL;
-    if (check_outputs(inputs, ninputs, o, err) ||
+    if (wpd_output_check(inputs, ninputs, o->output, o->per_input, o->write.overwrite, err) ||
         !(cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err)))
         return wpd_ranks_outcome(o->par, -1, err);
     /* Compressed inputs are decoded once: the scan keeps their records for
@@ -564,7 +442,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_selection sel = {0};
     wpd_resample_result res = {0};
     wpd_class_result classes = {0};
-    pending_files pending = {0};
+    wpd_output_files pending = {0};
     char *metrics_json = NULL;
     wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
                          .per_input = o->per_input, .params = &o->params, .run = &res};
@@ -575,7 +453,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         goto done;
     }
     /* Every rank: with --per-input each may write some of the outputs. */
-    if (pending_open(&pending, cloud, o, err))
+    if (wpd_output_files_open(&pending, cloud, o->per_input, err))
         goto done;
     if (!o->mem_bytes)
         o->mem_bytes = default_mem();
@@ -597,12 +475,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
              : wpd_resample_run(cloud, &ro, &res, err);
     /* The selection borrows the result's per-file facts; its points come
      * from the runs (or the class groups' runs) while they are written. */
-    sel = (wpd_selection){res.count, res.file_samples, res.file_bounds, res.moved,
-                          res.radius / 1000, o->edge_label,
-                          classes.ngroups ? records_by_class : records_of_run,
-                          classes.ngroups ? (void *)&classes : (void *)&res,
-                          res.unit_points && !classes.ngroups ? records_share_of_run : NULL,
-                          NULL};
+    sel = wpd_output_selection(&res, &classes, o->edge_label);
     if (rc == 0 && o->edge_label && !res.labelled && res.count)
         rc = wpd_fail(err, WPD_E_USAGE, "internal error: no sharp-feature labels to write");
     if (rc == 0 && o->metrics && !(sel.xyz_out = malloc((res.count ? res.count : 1) * 3 *
@@ -624,8 +497,10 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     double tw = omp_get_wtime();
     /* The records pass reads every input point: progress in those. */
     wpd_progress_phase(&o->progress, "write", res.input_points, "points");
+    wpd_selection_target to = {o->output, o->per_input, &o->write, o->mem_bytes,
+                               o->params.threads, &o->progress, o->par, dir};
     if (rc == 0)
-        rc = write_outputs(&sel, cloud, o, pending.files, &info.writers, err);
+        rc = wpd_output_write(&sel, cloud, &to, pending.files, &info.writers, err);
     wpd_progress_end(&o->progress);
     info.t_write = omp_get_wtime() - tw;
     info.t_total = omp_get_wtime() - t0;
@@ -643,7 +518,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
 done:
     if (!agreed)
         rc = wpd_ranks_outcome(o->par, rc, err);
-    pending_close(&pending, o);
+    wpd_output_files_close(&pending);
     wpd_resample_result_free(&res);
     wpd_class_result_free(&classes);
     free(sel.xyz_out);
@@ -664,35 +539,9 @@ static void sweep_leftovers(const resample_options *o)
     wpd_tmpdir_sweep_stale(base, "wpd-runs");
     wpd_tmpdir_sweep_stale(base, "wpd-blobs");
     wpd_tmpdir_sweep_stale(base, "wpd-cache");
-    /* Parts of outputs that ranks of an MPI run write (selection.h), also
-     * this output's extension as written (".LAZ"). */
-    const char *const parts[] = {".las", ".laz", ".ply", o->output ? o->output : ""};
-    for (size_t i = 0; i < sizeof parts / sizeof *parts; i++) {
-        char part[1100];
-        wpd_outfile_sweep_stale(wpd_part_path(base, parts[i], part, sizeof part));
-    }
+    wpd_output_sweep_parts(base, o->output);
     if (o->output)
         wpd_outfile_sweep_stale(o->output);
-}
-
-/* --skip-existing: moves the inputs that still need work to the front of
- * inputs and returns how many there are. An input needs work unless its
- * output in outdir exists and is at least as new. */
-static int drop_up_to_date(char **inputs, int n, const char *outdir)
-{
-    int kept = 0;
-    for (int i = 0; i < n; i++) {
-        char out[2048];
-        wpd_per_input_path(outdir, inputs[i], out, sizeof out);
-        struct stat si, so;
-        int fresh = stat(inputs[i], &si) == 0 && stat(out, &so) == 0 &&
-                    (so.st_mtim.tv_sec > si.st_mtim.tv_sec ||
-                     (so.st_mtim.tv_sec == si.st_mtim.tv_sec &&
-                      so.st_mtim.tv_nsec >= si.st_mtim.tv_nsec));
-        if (!fresh)
-            inputs[kept++] = inputs[i];
-    }
-    return kept;
 }
 
 /* The command after its options are parsed. */
@@ -701,7 +550,8 @@ static int run_command(char **inputs, int ninputs, resample_options *o)
     if (o->params.threads > 0)
         omp_set_num_threads(o->params.threads);
     wpd_error err = {0};
-    if (o->skip_existing && (ninputs = drop_up_to_date(inputs, ninputs, o->per_input)) == 0) {
+    if (o->skip_existing &&
+        (ninputs = wpd_output_keep_stale(inputs, ninputs, o->per_input)) == 0) {
         if (!o->quiet)
             printf("every output in %s is newer than its input: nothing to do\n", o->per_input);
         return 0;

@@ -94,29 +94,6 @@ static int check_budget(const wpd_run *run, wpd_error *err)
                     (unsigned long long)wpd_cloud_count(run->cloud));
 }
 
-/* Spill files with the whole write-buffer budget, whatever the number of
- * tiles (larger chunks compress better; the peak does not depend on the
- * input's size). With one thread, compression runs on the tiling thread;
- * with more, as many compression threads wait beside the tilers, each with
- * spares within the write budget where 64 KB buffers allow (at least 2). */
-int wpd_run_open_spill(wpd_run *run, wpd_tiles *tiles, wpd_error *err)
-{
-    wpd_spill_options so;
-    wpd_spill_default_options(&so);
-    so.threads = run->threads > 1 ? run->threads : 0;
-    if (so.threads > 0) {
-        size_t room = WPD_BUDGET_SPILL_BUFFERS / (64 << 10), tiles = (size_t)run->plan.ntiles;
-        size_t fit = room > tiles ? (room - tiles) / (size_t)so.threads : 0;
-        so.spares_per_thread = fit < 2 ? 2 : fit > WPD_SPILL_SPARES_PER_THREAD
-                                                  ? WPD_SPILL_SPARES_PER_THREAD
-                                                  : (int)fit;
-    }
-    size_t buffers = (size_t)run->plan.ntiles + (size_t)so.threads * (size_t)so.spares_per_thread;
-    size_t per_tile = WPD_BUDGET_SPILL_BUFFERS / buffers;
-    so.buffer_bytes = per_tile < (64 << 10) ? (64 << 10) : per_tile > (4 << 20) ? (4 << 20) : per_tile;
-    return wpd_tiles_open_spill(tiles, run->opt->tmpdir, run->plan.ntiles, &so, err);
-}
-
 /* scan -> radius -> plan: the frame, the radius and the tiles. */
 static int scan_and_plan(wpd_run *run, wpd_error *err)
 {

@@ -542,40 +542,6 @@ static int check_point_data(wpd_reader *r, uint64_t *points_end, wpd_error *err)
 
 /* ---- streaming ---- */
 
-size_t las_decode_xyz(const double scale[3], const double offset[3], uint32_t len,
-                      uint8_t *rec, size_t n, double *xyz)
-{
-    const double sx = scale[0], sy = scale[1], sz = scale[2];
-    const double ox = offset[0], oy = offset[1], oz = offset[2];
-    int bad = 0;
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t *p = rec + i * len;
-        int32_t X, Y, Z;
-        memcpy(&X, p, 4);
-        memcpy(&Y, p + 4, 4);
-        memcpy(&Z, p + 8, 4);
-        double x = X * sx + ox, y = Y * sy + oy, z = Z * sz + oz;
-        xyz[3 * i] = x;
-        xyz[3 * i + 1] = y;
-        xyz[3 * i + 2] = z;
-        bad |= !isfinite(x + y + z);
-    }
-    if (!bad)
-        return n;
-    size_t kept = 0;
-    for (size_t i = 0; i < n; i++) {
-        const double *v = xyz + 3 * i;
-        if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
-            continue;
-        if (kept != i) {
-            memmove(rec + kept * len, rec + i * len, len);
-            memmove(xyz + 3 * kept, v, 3 * sizeof *v);
-        }
-        kept++;
-    }
-    return kept;
-}
-
 static long las_read(wpd_reader *r, wpd_batch *b, wpd_error *err)
 {
     las_reader *L = r->impl;
