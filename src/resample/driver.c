@@ -14,6 +14,13 @@
 #include "core/knn.h"
 #include "method/ladder.h"
 #include "method/radius.h"
+#include "resample/sample_store.h"
+#include "resample/ranks.h"
+#include "resample/tile.h"
+#include "resample/poisson.h"
+#include "resample/exact.h"
+#include "resample/smooth.h"
+#include "resample/merge.h"
 
 static uint32_t record_size_of(const wpd_cloud *cloud)
 {
@@ -118,10 +125,10 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     res->unit_points = run->scan.unit_points;
     run->scan.unit_points = NULL;
     double t = omp_get_wtime();
-    res->radius_estimate = res->radius = estimate_radius(run);
+    res->radius_estimate = run->radius = estimate_radius(run);
     /* The halo carries the input surface across borders for smoothing:
      * samples move less than r, and the refinement changes r by little. */
-    run->halo = 2.5 * res->radius;
+    run->halo = 2.5 * run->radius;
     /* The input spacing is about 1.5 r sqrt(n / N); k = 13 neighbours lie
      * within ~1.7 spacings. */
     run->surface_dk = 2.5 * res->radius_estimate *
@@ -272,10 +279,12 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     wpd_plan_free(&run.plan);
     wpd_scan_free(&run.scan);
     free(run.owner);
-    if (rc)
+    if (rc) {
         wpd_resample_result_free(res);
-    else
+    } else {
+        res->radius = run.radius;
         res->time.total = omp_get_wtime() - t0;
+    }
     return rc;
 }
 

@@ -21,7 +21,7 @@
  * pass's three-valued rule (poisson_pass.c) with a conflict distance per
  * pair.
  */
-#include "resample/exact.h"
+#include "resample/exact_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -267,7 +267,7 @@ int wpd_exact_decide_tile(wpd_run *run, int t, int threads, void *arg, wpd_error
         goto done;
     }
     memcpy(x->next, x->state, x->ncand);
-    double cell = sw->conflict > 0 ? sw->conflict : run->res->radius;
+    double cell = sw->conflict > 0 ? sw->conflict : run->radius;
     if (wpd_grid_build(&g, v.xyz, NULL, v.n, cell, threads, err))
         goto done;
     for (size_t i = 0; i < v.n; i++)

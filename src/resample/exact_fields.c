@@ -1,6 +1,6 @@
 /* exact_fields.c - a sweep's per-tile arrays, held in memory or in files
  * (exact.h). */
-#include "resample/exact.h"
+#include "resample/exact_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

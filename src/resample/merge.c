@@ -7,7 +7,9 @@
  * runs in memory (its samples are there anyway), a tiled run reads each
  * tile from the sample store and writes it to files of its own (the
  * store and the spill are removed when the driver returns). */
+#include "resample/merge.h"
 #include "resample/run.h"
+#include "resample/sample_store.h"
 
 #include <stdlib.h>
 #include <string.h>

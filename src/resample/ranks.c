@@ -3,7 +3,9 @@
  * of a colour ran, each tile's samples handed from its owner to every
  * other rank's sample store, so that every rank holds what any tile of a
  * later colour reads, as one process would. */
+#include "resample/ranks.h"
 #include "resample/run.h"
+#include "resample/sample_store.h"
 
 #include <stdlib.h>
 #include <string.h>

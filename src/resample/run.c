@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "resample/budget.h"
+#include "resample/ranks.h"
 
 /* After colour c: with the ranks sharing the tiles, each tile's samples go
  * from its owner to every rank (ranks.c), agreeing first on the failure fe
@@ -70,12 +71,6 @@ static int run_tiles(wpd_run *run, const char *phase, wpd_tile_fn fn,
     return wpd_par_agree(run->opt->par, err);
 }
 
-int wpd_run_each_tile(wpd_run *run, const char *phase, wpd_tile_fn fn,
-                      wpd_colour_fn after_colour, void *arg, wpd_error *err)
-{
-    return run_tiles(run, phase, fn, after_colour, arg, 1, 0, NULL, err);
-}
-
 int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
                              wpd_colour_fn after_colour, const wpd_tile_share *extra,
                              void *arg, wpd_error *err)
@@ -87,10 +82,4 @@ int wpd_run_tiles_any_order_shared(wpd_run *run, const char *phase, wpd_tile_fn 
                                    const wpd_tile_share *extra, void *arg, wpd_error *err)
 {
     return run_tiles(run, phase, fn, NULL, arg, 0, 1, extra, err);
-}
-
-int wpd_run_tiles_any_order(wpd_run *run, const char *phase, wpd_tile_fn fn, void *arg,
-                            wpd_error *err)
-{
-    return run_tiles(run, phase, fn, NULL, arg, 0, 0, NULL, err);
 }

@@ -2,6 +2,7 @@
  * in memory for a cloud resampled in memory, else in files (one run of a
  * spill/runs.h set per tile) with a second set holding each tile's border:
  * the samples a neighbour's view can need, read without the whole tile. */
+#include "resample/sample_store.h"
 #include "resample/run.h"
 
 #include <stdlib.h>

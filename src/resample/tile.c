@@ -8,6 +8,7 @@
  * every tile into an outbox, and the outboxes go tile by tile to the
  * tiles' owners (tile_share.c); elsewhere (inputs that cannot seek) each
  * rank reads everything and keeps its own tiles' points. */
+#include "resample/tile.h"
 #include "resample/run.h"
 
 #include <stdlib.h>
@@ -16,6 +17,8 @@
 #include "common/testhook.h"
 #include "resample/budget.h"
 #include "io/pass.h"
+#include "resample/ranks.h"
+#include "resample/tile_share.h"
 
 /* Spill files with the whole write-buffer budget, whatever the number of
  * tiles (larger chunks compress better; the peak does not depend on the

@@ -5,7 +5,9 @@
  * which appends the parts in rank order. The blocks follow each other in
  * global-index order, so the owner's tile holds its points in the order
  * one process reads them (in other chunks: the points decode the same). */
+#include "resample/tile_share.h"
 #include "resample/run.h"
+#include "resample/ranks.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -2,6 +2,7 @@
  * coverage-aware elimination until n samples are left, each tile's samples
  * staying in its tile. */
 #include "resample/exact.h"
+#include "resample/exact_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -12,6 +13,8 @@
 #include "core/sort.h"
 #include "spill/blobs.h"
 #include "method/eliminate.h"
+#include "resample/sample_store.h"
+#include "resample/ranks.h"
 
 static int half_of(const wpd_tile_samples *s, size_t i)
 {
@@ -133,7 +136,7 @@ static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
         return -1;
     const wpd_tile_samples *s = &run->store[t];
     if (cost_view_build(run, t, 2 * sw->reach, sw->labelled, &v, err) ||
-        wpd_eliminate_init(&e, v.xyz, v.half, v.n, run->res->radius, sw->reach, threads, err) ||
+        wpd_eliminate_init(&e, v.xyz, v.half, v.n, run->radius, sw->reach, threads, err) ||
         wpd_eliminate_begin(&e, err) || wpd_tiles_read(&run->tiles, t, &d, err))
         goto done;
     wpd_eliminate_add_points(&e, d.xyz, NULL, d.n, threads);

@@ -23,6 +23,7 @@
  * of a later colour, which sees them as candidates, not blind, and
  * decides them for certain when it runs: such decisions go back to their
  * owner after each colour, so few points are left for a second round. */
+#include "resample/poisson.h"
 #include "resample/run.h"
 
 #include <stdlib.h>
@@ -33,6 +34,8 @@
 #include "core/sort.h"
 #include "method/refine.h"
 #include "method/sharp.h"
+#include "resample/sample_store.h"
+#include "resample/ranks.h"
 
 enum { MAX_ROUNDS = 10000 }; /* each round settles a point: only a bug gets here */
 
@@ -674,7 +677,7 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
             break;
         if (run->res->passes == 1)
             run->res->first_pass_count = count;
-        run->res->radius = pc.r;
+        run->radius = pc.r;
         wpd_refine_status s = wpd_refine_report(&st, count);
         if (s != WPD_REFINE_AGAIN) {
             rc = 0;

@@ -10,6 +10,7 @@
  * (2.5 r) holds the input points whose cover the tile's samples keep, but
  * for points farther than 1.5 r from every sample (holes the exact count
  * left) just past it: their cover is kept in memory, not quite in tiles. */
+#include "resample/smooth.h"
 #include "resample/run.h"
 
 #include <stdlib.h>
@@ -17,6 +18,7 @@
 #include "core/grid.h"
 #include "core/knn.h"
 #include "method/smooth.h"
+#include "resample/sample_store.h"
 
 static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -24,7 +26,7 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     const wpd_params *p = run->p;
     if (wpd_store_count(run, t) == 0)
         return 0;
-    double r = run->res->radius;
+    double r = run->radius;
     wpd_tile_data d;
     if (wpd_store_load(run, t, err))
         return -1;
