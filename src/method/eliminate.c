@@ -541,12 +541,3 @@ long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err)
     free(key), free(cand), free(taken), free(crowd), free(tmp);
     return (long)deleted;
 }
-
-size_t wpd_eliminate_result(const wpd_eliminate *e, uint32_t *idx)
-{
-    size_t m = 0;
-    for (size_t i = 0; i < e->n; i++)
-        if (e->alive[i])
-            idx[m++] = (uint32_t)i;
-    return m;
-}

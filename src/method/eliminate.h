@@ -109,10 +109,6 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
  * with err set (out of memory). */
 long wpd_eliminate_sweep(wpd_eliminate *e, size_t target, wpd_error *err);
 
-/* The live samples' indices, ascending, into idx (room for e->n); returns
- * their count. */
-size_t wpd_eliminate_result(const wpd_eliminate *e, uint32_t *idx);
-
 void wpd_eliminate_free(wpd_eliminate *e);
 
 #endif

@@ -443,13 +443,6 @@ void wpd_poisson_release(wpd_poisson *ps)
     free(ps);
 }
 
-size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell)
-{
-    if (cell)
-        *cell = ps->g->cell;
-    return ps->g->nruns;
-}
-
 /* ---- The two-valued pass on several threads ------------------------------
  *
  * Slots are in key order, rows of the grid's outer column axis one after

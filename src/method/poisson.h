@@ -62,9 +62,6 @@ wpd_poisson *wpd_poisson_prepare_on(const wpd_poisson_input *in, const wpd_grid 
                                     wpd_error *err);
 /* One pass at radius r (> 0), as wpd_poisson_pass. */
 long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err);
-/* Occupied cells of the context's grid and (if cell is not NULL) its cell
- * edge: a voxel count at that scale, aligned to the candidates' minimum. */
-size_t wpd_poisson_occupied_cells(const wpd_poisson *ps, double *cell);
 /* Frees a context; NULL is fine. */
 void wpd_poisson_release(wpd_poisson *ps);
 

@@ -258,7 +258,6 @@ int wpd_run_merge_next(wpd_run_merge *m, uint64_t end, wpd_sample_view *v, wpd_e
 }
 
 uint64_t wpd_run_merge_left(const wpd_run_merge *m) { return m->m.left; }
-int wpd_run_merge_with_edge(const wpd_run_merge *m) { return m->m.edge != NULL; }
 int wpd_run_merge_levels(const wpd_run_merge *m) { return m->levels; }
 size_t wpd_run_merge_chunk_points(const wpd_run_merge *m) { return m->m.rs->chunk_points; }
 

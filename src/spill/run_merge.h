@@ -4,7 +4,8 @@
  *
  * Memory runs cost no buffer (views point into them), so they are merged
  * in one level whatever their number. File runs cost one chunk buffer each
- * (wpd_run_reader_bytes); the budget also holds one decoder, the output
+ * (chunk points x WPD_RUNS_SAMPLE_BYTES); the budget also holds one
+ * decoder, the output
  * buffer of one chunk and, while merging a level, one encoder:
  *   fan-in F = (budget - those) / (reader + heap entry), at least 2.
  * While the set holds more than F non-empty runs, the k smallest of them,
@@ -46,9 +47,6 @@ uint64_t wpd_run_merge_left(const wpd_run_merge *m);
 
 /* Most samples one call hands out (the set's chunk). */
 size_t wpd_run_merge_chunk_points(const wpd_run_merge *m);
-
-/* Whether the samples carry labels (v->edge set). */
-int wpd_run_merge_with_edge(const wpd_run_merge *m);
 
 /* Merge levels run at open (0: the runs were within the fan-in). */
 int wpd_run_merge_levels(const wpd_run_merge *m);

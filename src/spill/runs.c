@@ -45,14 +45,6 @@ int wpd_runs_in_files(const wpd_runs *rs) { return rs->in_files; }
 int wpd_runs_with_edge(const wpd_runs *rs) { return rs->with_edge; }
 size_t wpd_runs_chunk_points(const wpd_runs *rs) { return rs->chunk_points; }
 
-uint64_t wpd_runs_total(const wpd_runs *rs)
-{
-    uint64_t n = 0;
-    for (int id = 0; id < rs->nruns; id++)
-        n += rs->runs[id].n;
-    return n;
-}
-
 size_t wpd_runs_memory_bytes(const wpd_runs *rs)
 {
     size_t bytes = (size_t)rs->cap * sizeof *rs->runs;
@@ -202,11 +194,6 @@ int wpd_runs_put(wpd_runs *rs, int id, uint64_t *gid, double *xyz, uint8_t *edge
 }
 
 /* ------------------------------------------------------ sequential reading */
-
-size_t wpd_run_reader_bytes(const wpd_runs *rs)
-{
-    return rs->in_files ? rs->chunk_points * WPD_RUNS_SAMPLE_BYTES : 0;
-}
 
 void wpd_run_reader_open(wpd_run_reader *r, const wpd_runs *rs, int id)
 {

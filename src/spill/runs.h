@@ -64,7 +64,6 @@ void wpd_runs_close(wpd_runs *rs);
 
 int wpd_runs_count(const wpd_runs *rs);           /* runs: ids 0 .. count-1 */
 uint64_t wpd_runs_length(const wpd_runs *rs, int id);
-uint64_t wpd_runs_total(const wpd_runs *rs);      /* samples over all runs */
 int wpd_runs_in_files(const wpd_runs *rs);
 int wpd_runs_with_edge(const wpd_runs *rs);
 size_t wpd_runs_chunk_points(const wpd_runs *rs);
@@ -118,10 +117,6 @@ typedef struct wpd_run_reader {
     double *xyz;
     uint8_t *edge;
 } wpd_run_reader;
-
-/* Bytes of one reader's buffer on rs (0 in memory: views point into the
- * run). */
-size_t wpd_run_reader_bytes(const wpd_runs *rs);
 
 /* Starts reading run id from its first sample. */
 void wpd_run_reader_open(wpd_run_reader *r, const wpd_runs *rs, int id);

@@ -36,7 +36,6 @@ struct laz_layered {
     size_t cap;
     int xyz_only;
     uint32_t count;             /* points of the chunk */
-    uint64_t skipped;
 };
 
 static uint32_t layers_of(const wpd_laz_item *x)
@@ -110,11 +109,6 @@ void laz_layered_xyz_only(laz_layered *L, int xyz_only)
     L->xyz_only = xyz_only;
 }
 
-uint64_t laz_layered_skipped(const laz_layered *L)
-{
-    return L->skipped;
-}
-
 /* Whether layer i is needed: all, or those of X Y (the XY layer, which
  * also carries what every other layer depends on) and Z. */
 static int wanted(const laz_layered *L, uint32_t i)
@@ -156,7 +150,6 @@ static int load_layers(laz_layered *L, laz_in *in, uint64_t load, const char **w
         laz_layer *y = &L->layer[i];
         y->active = y->size && wanted(L, i);
         if (!y->active) {
-            L->skipped += y->size;
             laz_in_seek(in, laz_in_tell(in) + y->size, in->limit);
             continue;
         }

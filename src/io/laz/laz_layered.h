@@ -26,9 +26,6 @@ void laz_layered_free(laz_layered *L);
  * only. */
 void laz_layered_xyz_only(laz_layered *L, int xyz_only);
 
-/* Bytes of layers skipped (not loaded) so far: what xyz_only saves. */
-uint64_t laz_layered_skipped(const laz_layered *L);
-
 /* Opens the chunk at in's position, whose bytes end at limit: reads the
  * raw first record (record_length bytes) into rec, the chunk's point
  * count into *count and the layers, and leaves in after the chunk.
