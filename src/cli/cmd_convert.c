@@ -40,7 +40,7 @@ static int write_commit(void *arg, wpd_pass_batch *pb, wpd_error *err)
 }
 
 /* Every point to the writer: read (and, for LAZ, decoded) on every thread
- * an ordered pass has (resample/pass.h), written in order on one. */
+ * an ordered pass has (io/pass.h), written in order on one. */
 static int stream_points(wpd_cloud *cloud, const wpd_header *in, const wpd_header *out,
                          const wpd_layout_map *map, wpd_writer *w, wpd_error *err)
 {

@@ -55,7 +55,7 @@ static int tally_lane(void *arg, wpd_pass_batch *pb, wpd_error *err)
 
 /* Finite points, their bounds and (LAS) return numbers, from one pass over
  * the one-file cloud read (and, for LAZ, decoded) on every thread
- * (resample/pass.h); *dropped: the points with non-finite coordinates. */
+ * (io/pass.h); *dropped: the points with non-finite coordinates. */
 static int scan_points(wpd_cloud *cloud, wpd_bounds *b, uint64_t by_return[16],
                        uint64_t *dropped, wpd_error *err)
 {

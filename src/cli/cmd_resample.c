@@ -140,12 +140,13 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_ASCII: o->write.ply_ascii = 1; return 0;
     case OPT_FORCE: o->write.overwrite = 1; return 0;
     case OPT_SMOOTH_MODE:
-        if (!strcmp(arg, "centroid")) p->smooth_mode = WPD_SMOOTH_CENTROID;
-        else if (!strcmp(arg, "vertex-mean")) p->smooth_mode = WPD_SMOOTH_VERTEX_MEAN;
-        else if (!strcmp(arg, "cotan")) p->smooth_mode = WPD_SMOOTH_COTAN;
-        else return -1;
-        return 0;
-    case OPT_FREE_SURFACE: p->keep_on_surface = 0; return 0;
+        fprintf(stderr, "wpd resample: --smooth-mode was removed: smoothing moves a sample "
+                "to its Voronoi cell's centroid (docs/algorithm.md)\n");
+        return -2;
+    case OPT_FREE_SURFACE:
+        fprintf(stderr, "wpd resample: --free-surface was removed: smoothed samples always "
+                "stay on the input surface (docs/algorithm.md)\n");
+        return -2;
     case OPT_PER_INPUT: o->per_input = arg; return 0;
     case OPT_TMPDIR: o->tmpdir = arg; return 0;
     case OPT_REPORT: o->report = arg; return 0;
@@ -166,7 +167,9 @@ static int parse_option(int c, const char *arg, resample_options *o)
     }
 }
 
-/* Fills o from argv; returns -1 (usage printed) on error, 1 for --help. */
+/* Fills o from argv; returns -1 (the error printed) on error, 1 for --help.
+ * Options that were removed keep their names here, for the one line that
+ * says so. */
 static int parse_args(int argc, char **argv, resample_options *o, int *first_input)
 {
     static const struct option longopts[] = {

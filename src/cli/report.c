@@ -38,12 +38,11 @@ static void write_options(FILE *f, const wpd_run_info *r)
     const wpd_params *p = r->params;
     fprintf(f, "  \"options\": {\"n\": %llu, \"lambda\": %.17g, \"voxel_frac\": %.17g, "
                "\"radius_estimate\": \"%s\", \"k\": %d, \"iterations\": %d, \"even_steps\": %d, "
-               "\"smooth\": %s, \"smooth_mode\": %d, \"keep_on_surface\": %s, \"sharp\": %s, "
+               "\"smooth\": %s, \"sharp\": %s, "
                "\"seed\": %llu, \"mem_bytes\": %zu},\n",
             (unsigned long long)r->target, p->lambda, p->voxel_frac,
             p->radius_method == WPD_RADIUS_PAPER ? "paper" : "multiscale", p->k, p->iterations,
-            p->even_iterations, p->smooth ? "true" : "false", p->smooth_mode,
-            p->keep_on_surface ? "true" : "false", p->sharp ? "true" : "false",
+            p->even_iterations, p->smooth ? "true" : "false", p->sharp ? "true" : "false",
             (unsigned long long)p->seed, r->mem_bytes);
 }
 

@@ -50,7 +50,6 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
     cell->closed = cell->nverts = 0;
     cell->area = 0;
     cell->centroid[0] = cell->centroid[1] = 0;
-    cell->vertex_mean[0] = cell->vertex_mean[1] = 0;
     memset(cell->edge, 0, (size_t)(m > 0 ? m : 0) * sizeof *cell->edge);
     if (frame <= 0) { /* the largest |q_j| */
         double f2 = 0;
@@ -92,7 +91,7 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
         return;
     cell->closed = 1;
     cell->nverts = poly->n;
-    double area2 = 0, cx = 0, cy = 0, mx = 0, my = 0;
+    double area2 = 0, cx = 0, cy = 0;
     for (int i = 0; i < poly->n; i++) {
         int k = i + 1 == poly->n ? 0 : i + 1;
         double ex = poly->x[k] - poly->x[i], ey = poly->y[k] - poly->y[i];
@@ -100,8 +99,6 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
         area2 += cross;
         cx += (poly->x[i] + poly->x[k]) * cross;
         cy += (poly->y[i] + poly->y[k]) * cross;
-        mx += poly->x[i];
-        my += poly->y[i];
         cell->vx[i] = poly->x[i];
         cell->vy[i] = poly->y[i];
         if (poly->label[i] == FRAME_EDGE)
@@ -114,29 +111,4 @@ void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell 
         cell->centroid[0] = cx / (3 * area2);
         cell->centroid[1] = cy / (3 * area2);
     }
-    cell->vertex_mean[0] = mx / poly->n;
-    cell->vertex_mean[1] = my / poly->n;
-}
-
-int wpd_cotan_average(const double *q, int m, const wpd_voronoi_cell *cell, double out[2])
-{
-    if (!cell->closed)
-        return 0;
-    if (m > WPD_VORONOI_MAX_NB)
-        m = WPD_VORONOI_MAX_NB;
-    double sw = 0, sx = 0, sy = 0;
-    for (int j = 0; j < m; j++) {
-        if (cell->edge[j] <= 0)
-            continue;
-        double len = sqrt(q[2 * j] * q[2 * j] + q[2 * j + 1] * q[2 * j + 1]);
-        double w = cell->edge[j] / len;
-        sw += w;
-        sx += w * q[2 * j];
-        sy += w * q[2 * j + 1];
-    }
-    if (!(sw > 0))
-        return 0;
-    out[0] = sx / sw;
-    out[1] = sy / sw;
-    return 1;
 }

@@ -1,6 +1,6 @@
 /* voronoi.h - the Voronoi cell of one point among its neighbours, in its
- * tangent plane, and the cotangent weights that follow from it (paper
- * eq. 7-8).
+ * tangent plane: its area centroid, where smoothing moves the point, and
+ * the edge lengths that give the cotangent weights of paper eq. 7-8.
  *
  * The point sits at the origin of the plane; its neighbours are 2-D points
  * q_j. The cell starts as a square frame and is clipped by the perpendicular
@@ -15,8 +15,7 @@
  * average of the neighbours is the point itself (the cotangent Laplacian
  * reproduces linear functions): taken literally, eq. 8 never moves a point
  * within its tangent plane. The Lloyd / CVT step the paper builds on moves
- * it to the area centroid of its cell instead; the authors' release moves it
- * to the plain mean of the cell's vertices. All three are provided.
+ * it to the area centroid of its cell instead, and so does wpd.
  */
 #ifndef WPD_CORE_VORONOI_H
 #define WPD_CORE_VORONOI_H
@@ -29,7 +28,6 @@ typedef struct wpd_voronoi_cell {
     int closed;                          /* 0: the cell touches the frame */
     double area;                         /* area of the (clipped) cell */
     double centroid[2];                  /* its area centroid */
-    double vertex_mean[2];               /* mean of its vertices */
     int nverts;
     double vx[WPD_VORONOI_MAX_VERTS], vy[WPD_VORONOI_MAX_VERTS]; /* counter-clockwise,
                                                                     [nverts] */
@@ -42,10 +40,5 @@ typedef struct wpd_voronoi_cell {
  * the largest |q_j|. Neighbours at the origin itself are ignored. */
 void wpd_voronoi_cell_2d(const double *q, int m, double frame, wpd_voronoi_cell *cell);
 
-/* The cotangent-weighted average of the neighbours (eq. 8; see the note
- * above: it is the origin, up to rounding, whenever the cell is closed):
- * sum_j w_j q_j / sum_j w_j, with w_j = edge_j / |q_j|. Returns 1 and sets
- * out, or 0 (out untouched) when the cell is open or has no weight. */
-int wpd_cotan_average(const double *q, int m, const wpd_voronoi_cell *cell, double out[2]);
 
 #endif

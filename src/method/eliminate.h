@@ -25,7 +25,7 @@
  * crowding distance below is at most R. With that, a tile that sees the
  * input points within R of its box and the samples within 2 R computes
  * its own samples' costs exactly as the whole cloud would (the exact count
- * through tiles, resample/exact_pass.c); in practice no cost reaches R
+ * through tiles, resample/exact.c); in practice no cost reaches R
  * (the largest candidate bound on the shared scans is 2.2 r).
  * Two samples deleted in one sweep never touch each other's regions or
  * second-nearest samples (the rule of step 2), so each opens exactly the

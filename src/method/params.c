@@ -18,8 +18,6 @@ void wpd_params_default(wpd_params *p)
     p->iterations = 5;
     p->even_iterations = 4;
     p->smooth = 1;
-    p->smooth_mode = WPD_SMOOTH_CENTROID;
-    p->keep_on_surface = 1;
     p->sharp = 0;
     p->seed = 0;
     p->threads = 0;

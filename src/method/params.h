@@ -23,8 +23,6 @@ typedef struct wpd_params {
     int iterations;           /* smoothing iterations (5) */
     int even_iterations;      /* even-spacing steps, alternated with them (4; smooth_even.h) */
     int smooth;               /* 1: weighted tangent smoothing (on) */
-    int smooth_mode;          /* a wpd_smooth_mode (smooth.h): WPD_SMOOTH_CENTROID */
-    int keep_on_surface;      /* 1: project smoothed samples onto the input surface (on) */
     int sharp;                /* 1: detect sharp features, sample them at r/2 (off) */
     double resolution[3];     /* the output stores coordinates as multiples of these
                                  per axis in the block frame (a LAS scale, when the

@@ -29,7 +29,7 @@
  * first) and leaves one or two sweeps. The pass at r'
  * is a maximal Poisson sample like any other: no holes. The cap keeps r'
  * within the halo's margin (the halo is 2.5 r0: blind points lie farther
- * than 2.5 r0 - r' from the box, see poisson_pass.c). On the scans in
+ * than 2.5 r0 - r' from the box, see resample/poisson.c). On the scans in
  * data/scans it evens the spacing (rho up by a fifth where the surplus was
  * large) for a Hausdorff distance up to 1.5 % larger (docs/algorithm.md).
  *

@@ -289,19 +289,17 @@ enum { VORONOI_NEIGHBOURS = 8 };
 #define OVER_RELAX 1.5
 
 /* The move (3D, within the tangent plane) that takes sample o from its
- * previous position OVER_RELAX times the way to the chosen centre of its
+ * previous position OVER_RELAX times the way to the area centroid of its
  * Voronoi cell; returns 0 if the cell is open (the sample stays). */
-static int cell_move(const wpd_smooth_input *in, const frames *f, const double *prev, size_t o,
-                     double m[3])
+static int cell_move(const frames *f, const double *prev, size_t o, double m[3])
 {
     const double *p = prev + 3 * o;
     const double *u = f->uvn + 9 * o, *v = u + 3;
     const uint32_t *nb = f->nb + o * (size_t)f->k;
     /* The cell is built from the nearest VORONOI_NEIGHBOURS of the k whose
-     * normal fit defines the plane (see the constant); the release's mode
-     * keeps all k, as the release does. */
+     * normal fit defines the plane (see the constant). */
     int all = f->cnt[o], cut = all;
-    if (in->mode != WPD_SMOOTH_VERTEX_MEAN && cut > VORONOI_NEIGHBOURS)
+    if (cut > VORONOI_NEIGHBOURS)
         cut = VORONOI_NEIGHBOURS;
     double q[2 * WPD_KNN_MAX], frame = 0;
     for (int j = 0; j < all; j++) {
@@ -315,15 +313,10 @@ static int cell_move(const wpd_smooth_input *in, const frames *f, const double *
      * reaches past the farthest of the k is open. */
     wpd_voronoi_cell cell;
     wpd_voronoi_cell_2d(q, cut, frame, &cell);
-    double c[2];
-    int ok = cell.closed;
-    if (in->mode == WPD_SMOOTH_COTAN)
-        ok = wpd_cotan_average(q, cut, &cell, c);
-    else
-        memcpy(c, in->mode == WPD_SMOOTH_VERTEX_MEAN ? cell.vertex_mean : cell.centroid, sizeof c);
+    const double *c = cell.centroid;
     for (int a = 0; a < 3; a++)
-        m[a] = ok ? OVER_RELAX * (c[0] * u[a] + c[1] * v[a]) : 0;
-    return ok;
+        m[a] = cell.closed ? OVER_RELAX * (c[0] * u[a] + c[1] * v[a]) : 0;
+    return cell.closed;
 }
 
 /* Samples on no surface at their start keep it (see wpd_off_surface). */
@@ -353,7 +346,7 @@ static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
 
 /* No sample ends farther than this (units of r) from where the Poisson
  * pass put it, whatever the iterations: the tiles rely on it (a tile's
- * context reaches 3 r past its box; smooth_pass.c). */
+ * context reaches 3 r past its box; resample/smooth.c). */
 #define WANDER_MAX 1.0
 
 /* A float32 PLY stores each coordinate to within r/2000 (cmd_resample
@@ -489,8 +482,7 @@ static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double 
 
 /* First half of a Voronoi step: every sample's Voronoi move and the
  * longest step it plans (0 for one that stays). Returns the open cells. */
-static size_t plan_moves(const wpd_smooth_input *in, frames *f, const double *prev,
-                         double step_max, int threads)
+static size_t plan_moves(frames *f, const double *prev, double step_max, int threads)
 {
     size_t open = 0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : open)
@@ -499,7 +491,7 @@ static size_t plan_moves(const wpd_smooth_input *in, frames *f, const double *pr
         f->cap[o] = 0;
         if (f->still[o])
             continue;
-        if (!cell_move(in, f, prev, o, m)) {
+        if (!cell_move(f, prev, o, m)) {
             open++;
             continue;
         }
@@ -525,7 +517,7 @@ static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const doubl
     if (f->even)
         plan_even_moves(in, f, prev, g->spacing.step_max, threads);
     else
-        st->open_cells = plan_moves(in, f, prev, g->spacing.step_max, threads);
+        st->open_cells = plan_moves(f, prev, g->spacing.step_max, threads);
     /* An even step's samples end where they are or on one of their tries. */
     g->spacing.ends = f->even ? &g->ends : NULL;
     if (g->cover.n && wpd_cover_update(&g->cover, &g->spacing, prev, threads, err))

@@ -7,9 +7,11 @@
  * sample at once (Jacobi: all read the previous iteration's positions, so
  * the result does not depend on threads): the neighbours are projected on
  * the sample's tangent plane, its Voronoi cell among them is clipped out of
- * a square frame (core/voronoi.h), and the sample moves to a centre of that
- * cell (see wpd_smooth_mode: eq. 8 taken literally never moves a point, so
- * the default is the Lloyd / CVT step the paper derives it from). A sample
+ * a square frame (core/voronoi.h), and the sample moves towards the area
+ * centroid of that cell: a Lloyd / CVT step, the one the paper derives eq. 8
+ * from (eq. 8 taken literally, the cotangent-weighted mean of the
+ * neighbours, is the point itself whenever its cell is closed, so it never
+ * moves a point; docs/algorithm.md). A sample
  * whose cell is open (still touches the frame: it lies on a border of the
  * sampling) does not move, nor does a sharp-feature sample with a normal
  * (non-sharp) neighbour, nor a sample whose neighbourhood is no surface
@@ -44,15 +46,6 @@
 #include "common/error.h"
 #include "core/grid.h"
 
-/* Where a sample moves within its tangent-plane Voronoi cell. */
-typedef enum wpd_smooth_mode {
-    WPD_SMOOTH_CENTROID = 0,    /* area centroid of the cell: a Lloyd / CVT step */
-    WPD_SMOOTH_VERTEX_MEAN = 1, /* mean of the cell's vertices (the authors' release) */
-    WPD_SMOOTH_COTAN = 2        /* cotangent-weighted mean of the Voronoi neighbours,
-                                   eq. 7-8 as printed: the point itself for every
-                                   closed cell (core/voronoi.h), kept for comparison */
-} wpd_smooth_mode;
-
 typedef struct wpd_smooth_input {
     double *xyz;             /* [3n] sample positions: read, then replaced */
     size_t n;
@@ -63,7 +56,6 @@ typedef struct wpd_smooth_input {
     const wpd_grid *surface; /* grid over the input points, or NULL: no projection */
     double surface_hint;     /* guess of the distance to the k-th nearest input
                                 point (a search radius; 0: the grid's cell) */
-    wpd_smooth_mode mode;
     int k;                   /* neighbours per sample (13), 3..WPD_KNN_MAX */
     int iterations;          /* Voronoi steps (5) */
     double spacing;          /* the Poisson radius r of the samples (> 0; 0: nothing

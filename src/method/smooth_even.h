@@ -1,5 +1,5 @@
 /* smooth_even.h - the even-spacing steps of smoothing (internal to
- * wpd/smooth.c).
+ * method/smooth.c).
  *
  * The Voronoi (Lloyd) steps even the samples' cells on a surface; they
  * leave the local spacing uneven where a Poisson sample left its gaps and

@@ -1,5 +1,5 @@
 /* smooth_guard.h - the two things a smoothing move must not break
- * (internal to wpd/smooth.c).
+ * (internal to method/smooth.c).
  *
  * Spacing. The Poisson pass leaves no two samples closer than r (r/2
  * between sharp-feature samples: the mean of the two radii); a Voronoi

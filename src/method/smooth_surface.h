@@ -1,5 +1,5 @@
 /* smooth_surface.h - keeping smoothed samples on the input surface
- * (internal to wpd/smooth.c).
+ * (internal to method/smooth.c).
  *
  * The guarantee: no sample ends farther from the input than the input's
  * own local spacing there (the mean distance from its nearest input point

@@ -8,7 +8,7 @@
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
  *   samples    nothing over all samples: a tiled run keeps them in
  *              files (the sample store, the exact count's fields, the
- *              result's runs: run.h, exact.h), a tile's only while it is
+ *              result's runs: sample_store.h, exact_internal.h), a tile's only while it is
  *              worked on - counted in its tile's bytes below; the records
  *              pass merges the runs within WPD_RUN_MERGE_BUDGET after the
  *              tiles are freed;

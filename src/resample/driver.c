@@ -193,13 +193,12 @@ static int finish(wpd_run *run, wpd_error *err)
 
 /* The Poisson passes. With one tile in memory and smoothing to come, the
  * tile's surface grid is built first, with every thread, and the Poisson
- * pass runs on it (poisson_pass.c) instead of on a second grid over the
- * whole cloud. With --sharp the labelling builds it (poisson_pass.c). */
+ * pass runs on it (resample/poisson.c) instead of on a second grid over the
+ * whole cloud. With --sharp the labelling builds it (resample/poisson.c). */
 static int poisson_phase(wpd_run *run, wpd_error *err)
 {
     const wpd_params *p = run->p;
-    int surface = run->res->in_memory && p->smooth && p->iterations + p->even_iterations > 0 &&
-                  p->keep_on_surface;
+    int surface = run->res->in_memory && p->smooth && p->iterations + p->even_iterations > 0;
     if (surface && !p->sharp) {
         const wpd_tile_data *d = &run->tiles.mem;
         if (wpd_grid_build_knn(&run->surface, d->xyz, NULL, d->n, p->k, run->surface_dk,

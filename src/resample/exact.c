@@ -1,4 +1,4 @@
-/* exact_pass.c - the exact count through tiles (exact.h): sweeps of
+/* exact.c - the exact count through tiles (exact.h): sweeps of
  * coverage-aware elimination until n samples are left, each tile's samples
  * staying in its tile. */
 #include "resample/exact.h"
@@ -157,7 +157,7 @@ done:
     return rc;
 }
 
-/* With the tiles shared between ranks (run.h), a tile's costs stay with its
+/* With the tiles shared between ranks (ranks.h), a tile's costs stay with its
  * owner: the selections sum the ranks' histograms (count_keys) and only the
  * owner picks the tile's candidates. The exchange after the costs carries
  * nothing but the agreement. */

@@ -18,7 +18,7 @@
  * conflicts with it. The UNKNOWN candidate of smallest priority over all
  * tiles is decided in the next round by its own tile, for which it is not
  * blind and all before it are settled: the rounds end. This is the Poisson
- * pass's three-valued rule (poisson_pass.c) with a conflict distance per
+ * pass's three-valued rule (resample/poisson.c) with a conflict distance per
  * pair.
  */
 #include "resample/exact_internal.h"

@@ -1,5 +1,5 @@
 /* exact.h - the exact count through tiles (internal to src/resample/):
- * coverage-aware elimination (wpd/eliminate.h) with the samples staying in
+ * coverage-aware elimination (method/eliminate.h) with the samples staying in
  * their tiles. A sweep is
  *   1. costs, per tile (any order): each tile's samples' costs and
  *      crowding distances from its input points and halo and the samples
@@ -12,7 +12,7 @@
  *      taken unless a candidate taken before it in (rank, global index)
  *      order lies within twice the larger of their costs - decided tile by
  *      tile with three values, as the Poisson pass decides its points
- *      (poisson_pass.c): a tile decides for certain only what the greedy
+ *      (resample/poisson.c): a tile decides for certain only what the greedy
  *      over all candidates decides, and leaves UNKNOWN what depends on
  *      candidates it cannot see; rounds repeat until all are decided;
  *   4. the first q taken candidates in (rank, index) order: a third

@@ -1,4 +1,4 @@
-/* poisson_pass.c - the Poisson-disk passes over the tiles with the paper's
+/* poisson.c - the Poisson-disk passes over the tiles with the paper's
  * count refinement (until a pass keeps at least n; refine.h), and
  * the take-everything run for n >= the input.
  *
@@ -471,7 +471,7 @@ static int hand_back(wpd_run *run, int colour, void *arg, wpd_error *err)
     return rc;
 }
 
-/* With the tiles shared between ranks (run.h): what a tile's run leaves
+/* With the tiles shared between ranks (ranks.h): what a tile's run leaves
  * beside its samples - its UNKNOWN own points, its decisions about other
  * tiles' (hand_back applies them on every rank alike) and that it ran. */
 static void pack_tile_state(const wpd_run *run, int t, void *arg, wpd_bytes *out)

@@ -1,5 +1,5 @@
 /* ranks.c - the tiles of a run shared between the ranks of an MPI run
- * (par/par.h, run.h "Ranks"): an owner rank per tile, and after the tiles
+ * (par/par.h, ranks.h): an owner rank per tile, and after the tiles
  * of a colour ran, each tile's samples handed from its owner to every
  * other rank's sample store, so that every rank holds what any tile of a
  * later colour reads, as one process would. */

@@ -92,7 +92,7 @@ typedef struct wpd_resample_result {
     size_t non_surface;       /* samples smoothing kept still: no surface around them */
     size_t isolated;          /* ... kept still: the input there sparser than the samples */
     size_t guarded_moves;     /* smoothing moves shortened or refused to keep the spacing
-                                 and the coverage (all iterations; wpd/smooth_guard.h) */
+                                 and the coverage (all iterations; method/smooth_guard.h) */
     uint64_t sharp_points;    /* input points labelled sharp */
     int in_memory;            /* 1: one tile held in memory, no spill */
     int tiles, colours;

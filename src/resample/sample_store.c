@@ -1,4 +1,4 @@
-/* sample_store.c - each tile's samples (run.h, "The sample store"): held
+/* sample_store.c - each tile's samples (sample_store.h): held
  * in memory for a cloud resampled in memory, else in files (one run of a
  * spill/runs.h set per tile) with a second set holding each tile's border:
  * the samples a neighbour's view can need, read without the whole tile. */

@@ -6,7 +6,7 @@
  * scanning again in the points' own frame when a header is off. Other
  * inputs get a bounds pass first. The scan pass counts finite points per
  * file, occupied voxels and a coarse density grid:
- * - occupied voxels at a ladder of scales (wpd/ladder.h), in bounded
+ * - occupied voxels at a ladder of scales (method/ladder.h), in bounded
  *   memory whatever the input size; the global radius comes from these
  *   counts, exactly as the in-memory path computes it.
  * - the density grid (cubic cells, at most WPD_SCAN_GRID along the longest
@@ -44,7 +44,7 @@ typedef struct wpd_scan {
     double wanted_voxels;             /* as given to wpd_scan_run */
     int nscales;
     int nestimated;                   /* the first nestimated scales: estimated from a
-                                         sample (wpd/ladder.h), the others exact */
+                                         sample (method/ladder.h), the others exact */
     double edge[WPD_MAX_SCALES];      /* voxel edges, finest first, doubling */
     uint64_t voxels[WPD_MAX_SCALES];  /* occupied voxels at each edge */
     int dim[3];                       /* density grid cells per axis */

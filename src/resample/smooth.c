@@ -1,4 +1,4 @@
-/* smooth_pass.c - weighted tangent smoothing, tile by tile: each tile's
+/* smooth.c - weighted tangent smoothing, tile by tile: each tile's
  * samples with its neighbours' samples within 3 r as context (at their
  * current positions: already smoothed for earlier colours) and a grid over
  * its input points and halo as the surface. Sharp-feature samples stay
@@ -40,14 +40,13 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     uint8_t *ctx_edge = NULL;
     size_t nctx = 0;
     int rc = -1;
-    if (p->keep_on_surface && surface == &own &&
+    if (surface == &own &&
         wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
         goto done;
     if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err))
         goto done;
     wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, ctx_edge, nctx,
-                           p->keep_on_surface ? surface : NULL, run->surface_dk,
-                           (wpd_smooth_mode)p->smooth_mode, p->k, p->iterations, r, threads,
+                           surface, run->surface_dk, p->k, p->iterations, r, threads,
                            {p->resolution[0], p->resolution[1], p->resolution[2]},
                            p->even_iterations};
     wpd_smooth_stats st;

@@ -1,12 +1,12 @@
-/* selection.h - the resampled points on their way to the output: the
+/* write.h - the resampled points on their way to the output: the
  * selected input points with their new coordinates, in global index order,
  * their records read once more from the inputs as they are written
  * (resample.h, wpd_resample_stream_records), to one file or split into one
  * file per input. No record, and no point, is held for all points at once:
  * the per-file counts and boxes are known before.
  */
-#ifndef WPD_SELECTION_H
-#define WPD_SELECTION_H
+#ifndef WPD_RESAMPLE_WRITE_H
+#define WPD_RESAMPLE_WRITE_H
 
 #include <stddef.h>
 #include <stdint.h>

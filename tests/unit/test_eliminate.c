@@ -1,4 +1,4 @@
-/* test_eliminate.c - the coverage-aware exact count (wpd/eliminate.h):
+/* test_eliminate.c - the coverage-aware exact count (method/eliminate.h):
  * costs as the definition reads, one sweep's deletions apart, the result
  * independent of how the input is handed in, and no holes. */
 #include <math.h>

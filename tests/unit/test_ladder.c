@@ -1,4 +1,4 @@
-/* test_ladder.c - the voxel ladder of the scan (wpd/ladder.h): exact counts
+/* test_ladder.c - the voxel ladder of the scan (method/ladder.h): exact counts
  * at every scale, merged from parts on threads or from the packed ladders of
  * other ranks, and the sampled finer scales. */
 #include <math.h>

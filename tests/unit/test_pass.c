@@ -1,4 +1,4 @@
-/* test_pass.c - the streaming pass (resample/pass.h) and the bounded reads
+/* test_pass.c - the streaming pass (io/pass.h) and the bounded reads
  * under it: the same points, global indices and counts whatever the lanes
  * and the reading mode, on files with non-finite points across file and
  * unit boundaries. */

@@ -1,4 +1,4 @@
-/* test_smooth.c - what smoothing must keep (wpd/smooth_guard.h): the
+/* test_smooth.c - what smoothing must keep (method/smooth_guard.h): the
  * Poisson spacing (no pair closer than 0.75 r), the cover of the input (no
  * input point ends farther from the samples than max(r, before)), samples
  * off a surface still, the same bytes for any thread count. */
@@ -88,8 +88,8 @@ static int smooth(cloud *c, double *t, double r, int threads, int even, wpd_smoo
 {
     wpd_error err;
     memcpy(t, c->s, 3 * c->m * sizeof *t);
-    wpd_smooth_input in = {t, c->m, NULL, NULL, NULL, 0, &c->surface, 0, WPD_SMOOTH_CENTROID,
-                           13, 5, r, threads, {0, 0, 0}, even};
+    wpd_smooth_input in = {t, c->m, NULL, NULL, NULL, 0, &c->surface, 0, 13, 5, r, threads,
+                           {0, 0, 0}, even};
     return wpd_smooth(&in, st, &err);
 }
 

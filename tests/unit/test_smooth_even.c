@@ -1,4 +1,4 @@
-/* test_smooth_even.c - the even-spacing steps (wpd/smooth_even.h): the
+/* test_smooth_even.c - the even-spacing steps (method/smooth_even.h): the
  * points a sample may step onto are the best a literal evaluation of its
  * sum ranks, and the steps even the local spacing while keeping what
  * smoothing must keep (input points only, the spacing floor, the cover,
@@ -254,8 +254,8 @@ TEST(even_steps_even_the_spacing_on_a_plane_and_in_a_volume)
         for (int threads = 1; threads <= 2; threads++) {
             double *out = threads == 1 ? t1 : t;
             memcpy(out, s, 3 * m * sizeof *s);
-            wpd_smooth_input in = {out, m, NULL, NULL, NULL, 0, &surface, 0, WPD_SMOOTH_CENTROID,
-                                   13, 0, r, threads, {0, 0, 0}, 3};
+            wpd_smooth_input in = {out, m, NULL, NULL, NULL, 0, &surface, 0, 13, 0, r, threads,
+                                   {0, 0, 0}, 3};
             CHECK(wpd_smooth(&in, &st, &err) == 0);
         }
         CHECK_MSG(memcmp(t, t1, 3 * m * sizeof *t) == 0, "shape %d: threads changed it", shape);
@@ -333,8 +333,8 @@ TEST(even_steps_move_as_much_on_a_las_lattice)
     for (int lattice = 0; lattice < 2; lattice++) {
         double res = lattice ? scale : 0;
         memcpy(t[lattice], s, 3 * m * sizeof *s);
-        wpd_smooth_input in = {t[lattice], m, NULL, NULL, NULL, 0, &surface, 0,
-                               WPD_SMOOTH_CENTROID, 13, 0, r, 2, {res, res, res}, 3};
+        wpd_smooth_input in = {t[lattice], m, NULL, NULL, NULL, 0, &surface, 0, 13, 0, r, 2,
+                               {res, res, res}, 3};
         wpd_smooth_stats st;
         CHECK(wpd_smooth(&in, &st, &err) == 0);
         for (size_t i = 0; i < 3 * m; i += 3)

@@ -1,5 +1,5 @@
 /* edges.h - `wpd edges`: the sharp-feature detector of `wpd resample
- * --sharp` (wpd/sharp.h) on every point of a cloud, to measure it and to
+ * --sharp` (method/sharp.h) on every point of a cloud, to measure it and to
  * look at it.
  *
  *   wpd edges IN [--cap R] [--truth DIM] [-o OUT] [--threads T] [--force]

@@ -1,5 +1,5 @@
 /* ply_internal.h - facts shared by the PLY reader (ply_read.c) and writer
- * (ply_write.c). Not for use outside src/io/ply_*.c. */
+ * (ply_write.c). Not for use outside src/io/ply/. */
 #ifndef WPD_PLY_INTERNAL_H
 #define WPD_PLY_INTERNAL_H
 

@@ -1,6 +1,6 @@
 /* ply_stream.h - a buffered view of a PLY file from some offset, for the
  * ascii body and for walking binary items of varying size. Private to the
- * PLY reader (src/io/ply_*.c).
+ * PLY reader (src/io/ply/).
  *
  * The buffer has one byte beyond cap for a NUL sentinel, so ascii scanning
  * needs no bounds checks. Reads use pread: the view owns its file offset,
