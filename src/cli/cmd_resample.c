@@ -5,6 +5,7 @@
 #include "cli/report.h"
 #include "cli/run_ranks.h"
 #include "resample/output.h"
+#include "resample/read.h"
 #include "common/outfile.h"
 #include "common/tmpdir.h"
 #include "io/cloud.h"
@@ -423,16 +424,10 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
     wpd_cloud *cloud = NULL;
+    char dir[1024];
     if (wpd_output_check(inputs, ninputs, o->output, o->per_input, o->write.overwrite, err) ||
-        !(cloud = wpd_cloud_open((const char *const *)inputs, ninputs, err)))
+        !(cloud = wpd_read_open(inputs, ninputs, spill_dir(o, dir, sizeof dir), err)))
         return wpd_ranks_outcome(o->par, -1, err);
-    /* Compressed inputs are decoded once: the scan keeps their records for
-     * the tile and records passes (docs/engine.md, "Compressed inputs"). */
-    char cache_base[1024];
-    if (wpd_cloud_cache_records(cloud, spill_dir(o, cache_base, sizeof cache_base), err)) {
-        wpd_cloud_close(cloud);
-        return wpd_ranks_outcome(o->par, -1, err);
-    }
     int writer = wpd_par_rank(o->par) == 0, agreed = 0;
     if (!o->quiet)
         wpd_cloud_print_warnings(cloud, "resample", stderr);
@@ -470,8 +465,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     info.target = target;
     info.mem_bytes = o->mem_bytes;
     info.threads = o->params.threads > 0 ? o->params.threads : omp_get_max_threads();
-    char dir[1024];
-    wpd_resample_options ro = {target, o->mem_bytes, spill_dir(o, dir, sizeof dir),
+    wpd_resample_options ro = {target, o->mem_bytes, dir,
                                o->min_tiles, o->params, &o->progress, o->par};
     rc = wpd_class_args_used(&o->classes)
              ? run_by_class(cloud, o, &ro, &res, &classes, &info, err)

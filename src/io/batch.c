@@ -3,6 +3,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+size_t wpd_batch_bytes(uint32_t record_size)
+{
+    return (size_t)WPD_BATCH_POINTS * (record_size + 24);
+}
+
 int wpd_batch_init(wpd_batch *b, size_t cap, uint32_t record_size)
 {
     memset(b, 0, sizeof *b);

@@ -17,6 +17,12 @@ typedef struct wpd_batch {
 /* Record bytes a batch holds at most. */
 #define WPD_BATCH_MAX_BYTES ((size_t)64 << 20)
 
+/* Points a streaming pass reads at once (io/pass.h). */
+enum { WPD_BATCH_POINTS = 65536 };
+
+/* Bytes of one batch of WPD_BATCH_POINTS points with their records. */
+size_t wpd_batch_bytes(uint32_t record_size);
+
 /* Allocates room for cap points of record_size bytes - fewer when that
  * would pass WPD_BATCH_MAX_BYTES of records (b->cap says how many, at least
  * 1). Returns 0, or -1 if out of memory (the batch is then zeroed and safe

@@ -20,7 +20,6 @@
 
 #include "common/first_error.h"
 #include "io/reader.h"
-#include "resample/budget.h"
 
 typedef struct lane {
     wpd_cloud *cloud;         /* parallel reading: the lane's own */
@@ -60,7 +59,7 @@ size_t wpd_pass_lane_bytes(const wpd_cloud *c)
 {
     /* The batch, and a cloud's copies of the headers; a seekable reader
      * keeps no buffer of its own. */
-    return wpd_budget_batch_bytes(wpd_cloud_header(c, 0)->schema.record_size) +
+    return wpd_batch_bytes(wpd_cloud_header(c, 0)->schema.record_size) +
            (size_t)wpd_cloud_nfiles(c) * sizeof(wpd_header);
 }
 

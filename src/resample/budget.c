@@ -48,11 +48,6 @@ uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points
     return m < WPD_BUDGET_MIN_TILE_POINTS ? WPD_BUDGET_MIN_TILE_POINTS : m;
 }
 
-size_t wpd_budget_batch_bytes(uint32_t record_size)
-{
-    return (size_t)WPD_BATCH_POINTS * (record_size + 24);
-}
-
 int wpd_threads_within(int threads, size_t room, size_t per_thread)
 {
     size_t extra = room / (per_thread ? per_thread : 1);

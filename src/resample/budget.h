@@ -34,7 +34,6 @@ enum {
     WPD_BUDGET_SPILL_BUFFERS = 32 << 20,
     WPD_BUDGET_MIN_TILE_POINTS = 20000,
     WPD_TILES_IN_FLIGHT = 4,       /* more threads than this do not speed tiles up */
-    WPD_BATCH_POINTS = 65536,      /* points a streaming pass reads at once */
 };
 
 /* The samples an input point may leave: 1.3 target / points (the first
@@ -62,9 +61,6 @@ size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size);
  * beside the fixed part and the spill buffers (at least
  * WPD_BUDGET_MIN_TILE_POINTS). */
 uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points);
-
-/* Bytes of one batch of WPD_BATCH_POINTS points with their records. */
-size_t wpd_budget_batch_bytes(uint32_t record_size);
 
 /* min(threads, 1 + room / per_thread), at least 1: each thread beyond the
  * first needs per_thread bytes of its own. */

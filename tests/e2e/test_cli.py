@@ -172,3 +172,27 @@ def test_progress_only_when_asked():
     assert "load" in p.stderr and "resampled" in p.stdout
     p = wpd("resample", src, "-o", "c.las", "-n", 1000, "--verbose", "--quiet")
     assert p.stderr == "" and p.stdout == ""
+
+
+COMMANDS = ("resample", "info", "convert", "metrics", "preview", "synth", "edges")
+
+
+def test_man_page_names_every_option_of_the_help_and_no_other():
+    helped = set()
+    for cmd in COMMANDS:
+        p = wpd(cmd, "--help", check=False)
+        helped |= set(re.findall(r"--[a-z][a-z-]*", p.stdout + p.stderr))
+    with open(os.path.join(REPO, "docs", "wpd.1")) as f:
+        man = set(re.findall(r"--[a-z][a-z-]*", f.read().replace("\\", "")))
+    assert helped == man, ("only in --help", helped - man, "only in the man page", man - helped)
+
+
+def test_removed_options_are_refused_in_one_line():
+    src = data("las", "pdal_simple.las")
+    for opt in (("--smooth-mode", "cotan"), ("--smooth-mode", "vertex-mean"),
+                ("--free-surface",)):
+        p = wpd("resample", src, "-o", "out.las", "-n", 100, *opt, check=False)
+        lines = p.stderr.strip().splitlines()
+        assert p.returncode == 1 and len(lines) == 1, (opt, p.returncode, p.stderr)
+        assert lines[0].startswith("wpd resample: %s was removed" % opt[0]), lines
+        assert not os.path.exists("out.las")
