@@ -6,7 +6,7 @@ built (docs/engine.md, "What reaching the issue's 11 s would take").
 
 The exact count's cost of a sample s is the largest distance from an input
 point whose nearest sample is s to that point's second-nearest sample
-(wpd/eliminate.h). Costs are maxima, so a cell of input points can be
+(method/eliminate.h). Costs are maxima, so a cell of input points can be
 skipped without changing any cost when every sample that can be the nearest
 of one of its points already has a cost at least the cell's bound on the
 second-nearest distance. Two cases are counted, per cell size:

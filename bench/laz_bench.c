@@ -3,7 +3,7 @@
  *   laz_bench FILE [THREADS] [REPEAT] [xyz]
  *
  * Decodes every point of FILE (LAZ or LAS) on THREADS threads (default 1)
- * the way the engine's passes do (resample/pass.c): the points are cut
+ * the way the engine's passes do (io/pass.c): the points are cut
  * into units of whole LAZ chunks (wpd_chunk_units: consecutive chunks up to
  * 50,000 points, a larger chunk alone; 50,000 points where the file has no
  * chunk table), each thread opens the file once and
