@@ -68,6 +68,9 @@ commands=(
 )
 # Run facts that may differ between two runs of one build: times, memory.
 volatile='"(seconds|peak_rss_bytes|time|[a-z_]*_s|[a-z_]*seconds)"|time:|peak RSS'
+# Report keys of options that were removed (--smooth-mode, --free-surface),
+# which an older base build still writes.
+removed='s/"smooth_mode": [0-9]+, "keep_on_surface": (true|false), //'
 
 mpi_base=$(dirname "$base")/wpd-mpi mpi_new=$(dirname "$new")/wpd-mpi
 if [ -x "$mpi_base" ] && [ -x "$mpi_new" ] && command -v mpirun >/dev/null; then
@@ -97,7 +100,7 @@ for k in "${!commands[@]}"; do
         echo "exit $?" >>"$dir.stdout"
         for f in "$dir.stdout" "$dir.stderr" "$dir"/*.json; do
             [ -f "$f" ] || continue
-            sed -E -i "s|$dir|{}|g; /$volatile/d; s/[0-9]+\.[0-9]+ s\b/<t> s/g" "$f"
+            sed -E -i "s|$dir|{}|g; /$volatile/d; s/[0-9]+\.[0-9]+ s\b/<t> s/g; $removed" "$f"
         done
     done
     n=$((n + 1))
