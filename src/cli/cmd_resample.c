@@ -424,9 +424,10 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
     wpd_cloud *cloud = NULL;
-    char dir[1024];
+    char buf[1024];
+    const char *dir = spill_dir(o, buf, sizeof buf);
     if (wpd_output_check(inputs, ninputs, o->output, o->per_input, o->write.overwrite, err) ||
-        !(cloud = wpd_read_open(inputs, ninputs, spill_dir(o, dir, sizeof dir), err)))
+        !(cloud = wpd_read_open(inputs, ninputs, dir, err)))
         return wpd_ranks_outcome(o->par, -1, err);
     int writer = wpd_par_rank(o->par) == 0, agreed = 0;
     if (!o->quiet)
