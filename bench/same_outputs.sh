@@ -46,6 +46,8 @@ commands=(
     "synth -n 30000 --seed 4 --tiles 2 --oblique --edge-truth -o {}/s.ply"
     "resample $in/city.las -o {}/r.las -n 5000 -q"
     "resample $in/city.las -o {}/r.las -n 5000 -q --min-tiles 8"
+    "resample $in/city.las -o r.las -n 3000 -q --min-tiles 4"
+    "resample $in/city.laz -o {}/r.las -n 3000 -q --min-tiles 4 --tmpdir {}"
     "resample $in/city.las -o {}/r.laz -n 20000 -q --min-tiles 4 --no-smooth"
     "resample $in/city.laz -o {}/r.ply -n 1% -q --mem 70M"
     "resample $in/city_ascii.ply -o {}/r.ply -n 3000 -q --min-tiles 4"
