@@ -153,8 +153,10 @@ int laz_color14_encode(color14 *c, laz_layer *layer, unsigned ch, const uint8_t 
     if (color_switch(c, ch, &l))
         return -1;
     color14_context *x = c->ctx[c->current];
-    for (int i = 0; i < 3; i++)
-        layer[0].changed |= get_u16(rec + 2 * i) != l->last[i];
+    /* LASzip writes the colour layer when any point's symbol is not 0:
+     * a byte changed, or the colour is not grey (its bit 6). */
+    uint16_t r = get_u16(rec), g = get_u16(rec + 2), b = get_u16(rec + 4);
+    layer[0].changed |= r != l->last[0] || g != l->last[1] || b != l->last[2] || g != r || b != r;
     memcpy(x->rgb->last, l->last, sizeof l->last);
     laz_rgb12_encode(x->rgb, &layer[0].enc, rec);
     memcpy(l->last, x->rgb->last, sizeof l->last);

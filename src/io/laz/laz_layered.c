@@ -211,7 +211,7 @@ int laz_layered_open(laz_layered *L, laz_in *in, uint64_t limit, uint32_t record
 
 int laz_layered_decode(laz_layered *L, uint8_t *rec, const char **why)
 {
-    /* POINT14 comes first and decides the scanner channel of the rest. */
+    /* POINT14 comes first and decides the context of the rest. */
     unsigned ch = 0;
     for (uint32_t i = 0; i < L->n; i++) {
         item14 *x = &L->it[i];
@@ -221,7 +221,7 @@ int laz_layered_decode(laz_layered *L, uint8_t *rec, const char **why)
         switch (x->type) {
         case LAZ_ITEM_POINT14:
             rc = laz_point14_decode(x->u.p, y, p, why);
-            ch = x->u.p->current;
+            ch = x->u.p->item;
             break;
         case LAZ_ITEM_RGB14: case LAZ_ITEM_RGBNIR14:
             rc = laz_color14_decode(x->u.c, y, ch, p);
@@ -258,7 +258,9 @@ int laz_layered_start_encode(laz_layered *L, const uint8_t *rec)
         laz_layer *y = &L->layer[i];
         laz_out_clear(&y->out);
         laz_enc_init(&y->enc, &y->out);
-        y->changed = i == P14_XY; /* the XY layer is always written */
+        /* LASzip always writes the XY and Z layers, even for a Z that
+         * never changes in the chunk: so do we, for the same bytes. */
+        y->changed = i == P14_XY || i == P14_Z;
     }
     return start_items(L, rec) ? -1 : 0;
 }
@@ -274,7 +276,7 @@ int laz_layered_encode(laz_layered *L, const uint8_t *rec)
         switch (x->type) {
         case LAZ_ITEM_POINT14:
             rc = laz_point14_encode(x->u.p, y, p);
-            ch = x->u.p->current;
+            ch = x->u.p->item;
             break;
         case LAZ_ITEM_RGB14: case LAZ_ITEM_RGBNIR14:
             rc = laz_color14_encode(x->u.c, y, ch, p);

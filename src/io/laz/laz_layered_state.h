@@ -53,19 +53,29 @@ typedef struct p14_context {
     laz_ic ic_dx, ic_dy, ic_z, ic_intensity, ic_scan, ic_source;
 } p14_context;
 
+/* item: the context POINT14 hands the items after it for the point just
+ * coded. LASzip hands them the new scanner channel on a point whose channel
+ * changed (and the first point's channel at a chunk's start), and context 0
+ * on every other point, whatever its channel: its point reader starts each
+ * point with context 0 and only a channel change sets it. So on a chunk of
+ * channels 1 1 2 2 the items use contexts 1 0 2 0. */
 typedef struct point14 {
     uint32_t current;           /* scanner channel of the previous point */
     uint32_t used;              /* bit c: context c started in this chunk */
+    uint32_t item;              /* context of the other items, see above */
     p14_context *ctx[4];        /* made on first use */
 } point14;
 
 /* Colour (RGB14, and NIR of RGBNIR14) and extra bytes (BYTE14) keep
- * models and a previous value per scanner channel, but LASzip predicts a
- * point from the previous value of the *previous point's* channel, except
- * at a channel's first point in the chunk, which starts that channel's
- * context from it; the value decoded replaces the one it was predicted
- * from. (LASzip's items take their "last item" before looking at the
- * channel and move it only to a new context; this is the format.) */
+ * models and a previous value per item context (point14.item, not the
+ * scanner channel). A point of item context k after one of context j: if
+ * k == j, context k predicts and is updated; if context k is not yet used
+ * in the chunk, it starts from j's previous values (fresh models) and then
+ * predicts and is updated as before; if k was used already, k's models
+ * code the point but j's previous values predict it, and the value coded
+ * replaces j's, while k's stay as they were. (LASzip's items take their
+ * previous values before looking at the context and move to the new
+ * context's only when they start it; this is the format.) */
 typedef struct color14_context {
     rgb12 *rgb;                 /* models (its last is scratch) */
     uint16_t last[3], last_nir;

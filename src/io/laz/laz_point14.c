@@ -131,7 +131,7 @@ int laz_point14_context(point14 *p, unsigned ch, const uint8_t *last)
 int laz_point14_start(point14 *p, const uint8_t *rec)
 {
     p->used = 0;
-    p->current = (rec[15] >> 4) & 3;
+    p->item = p->current = (rec[15] >> 4) & 3;
     return laz_point14_context(p, p->current, rec);
 }
 
@@ -270,8 +270,12 @@ int laz_point14_decode(point14 *p, laz_layer *layer, uint8_t *out, const char **
     unsigned lr = c->last[14] & 15, ln = c->last[14] >> 4;
     unsigned lpr = (lr == 1) + 2u * (lr >= ln) + 4u * (unsigned)c->gps_change;
     uint32_t changed = laz_dec_symbol(d, &c->m_changed[lpr]);
-    if ((changed & 64) && switch_channel(p, d))
-        return -2;
+    p->item = 0;
+    if (changed & 64) {
+        if (switch_channel(p, d))
+            return -2;
+        p->item = p->current;
+    }
     c = p->ctx[p->current];
     if (returns(c, d, changed))
         return -2;

@@ -16,6 +16,20 @@ static int16_t get_i16(const uint8_t *p)
     return v;
 }
 
+/* Whether the GPS time at a differs from the one at b. LASzip compares
+ * them as doubles, so a NaN always counts as changed (it is then coded as
+ * a difference of 0, which we must code too for the same bytes); it would
+ * also take -0.0 after 0.0 as unchanged and lose the sign, so bits that
+ * differ count as changed as well (the one case where our bytes differ,
+ * both readable). */
+static int gps_differs(const uint8_t *a, const uint8_t *b)
+{
+    double x, y;
+    memcpy(&x, a, 8);
+    memcpy(&y, b, 8);
+    return x != y || memcmp(a, b, 8) != 0;
+}
+
 /* The change bits of the XY layer's symbol (see laz_point14.c), rec
  * against last, the predecessor of the same scanner channel. */
 static uint32_t changes(const uint8_t *last, const uint8_t *rec, int channel_changed)
@@ -23,7 +37,7 @@ static uint32_t changes(const uint8_t *last, const uint8_t *rec, int channel_cha
     unsigned lr = last[14] & 15, r = rec[14] & 15;
     uint32_t ret = r == lr ? 0 : r == ((lr + 1) & 15) ? 1 : r == ((lr + 15) & 15) ? 2 : 3;
     return (uint32_t)channel_changed << 6 | (uint32_t)(get_u16(rec + 20) != get_u16(last + 20)) << 5 |
-           (uint32_t)(memcmp(rec + 22, last + 22, 8) != 0) << 4 |
+           (uint32_t)gps_differs(rec + 22, last + 22) << 4 |
            (uint32_t)(get_i16(rec + 18) != get_i16(last + 18)) << 3 |
            (uint32_t)((rec[14] >> 4) != (last[14] >> 4)) << 2 | ret;
 }
@@ -71,7 +85,6 @@ static void z(p14_context *c, laz_layer *y, const uint8_t *rec, unsigned n, unsi
     uint32_t k = (c->ic_dx.k + c->ic_dy.k) / 2;
     int32_t v = get_i32(rec + 8);
     laz_ic_encode(&c->ic_z, &y->enc, c->last_z[l], v, (n == 1) + (k < 18 ? k & ~1u : 18));
-    y->changed |= v != get_i32(c->last + 8);
     c->last_z[l] = v;
 }
 
@@ -138,9 +151,10 @@ int laz_point14_encode(point14 *p, laz_layer *layer, const uint8_t *rec)
         return -1;
     uint32_t changed = changes(p->ctx[ch]->last, rec, ch != p->current);
     laz_enc_symbol(e, &c->m_changed[lpr], changed);
+    p->item = 0;
     if (changed & 64) {
         laz_enc_symbol(e, &c->m_channel, (ch - p->current - 1) & 3);
-        p->current = ch;
+        p->item = p->current = ch;
     }
     c = p->ctx[ch];
     if (returns(c, e, rec, changed))
