@@ -1,4 +1,5 @@
-/* testhook.h - a fault-injection point for the end-to-end tests.
+/* testhook.h - fault-injection points and settings for the end-to-end
+ * tests.
  *
  * With WPD_TEST_STALL=<name> in the environment, the process stops at the
  * point of that name (printing "wpd: stalled at <name>" on stderr) and waits
@@ -15,5 +16,11 @@
 #define WPD_TESTHOOK_H
 
 void wpd_test_stall(const char *name);
+
+/* A number the tests may set through the environment variable var (a
+ * decimal from 1 to max), else fallback: e.g. WPD_TEST_LAZ_CHUNK, the
+ * points per LAZ chunk, so a test can compare chunks of 1 or 2 points with
+ * LASzip's. A value that is not such a number is ignored. */
+unsigned long wpd_test_number(const char *var, unsigned long fallback, unsigned long max);
 
 #endif

@@ -62,7 +62,7 @@ uint64_t wpd_writer_count(const wpd_writer *w);
  * it (LAZ and ASCII PLY sizes are known only once encoded), and the first
  * process adds the facts of the others, in order (wpd_writer_add_part),
  * before it closes the output. For LAZ, every part but the last must hold
- * whole chunks (a multiple of WPD_LAZ_CHUNK_POINTS points): the output is
+ * whole chunks (a multiple of wpd_laz_chunk_points() points): the output is
  * then the bytes one process writes. */
 
 /* What a part holds, for the output's header and tables. */

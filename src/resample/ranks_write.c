@@ -23,7 +23,7 @@ int wpd_selection_shared(const wpd_selection *sel, const wpd_selection_target *t
  * (the same cut for every output format, so that the parts are simple). */
 static void share_of(uint64_t n, int ranks, int r, uint64_t *first, uint64_t *count)
 {
-    uint64_t chunk = WPD_LAZ_CHUNK_POINTS;
+    uint64_t chunk = wpd_laz_chunk_points();
     uint64_t lo = (uint64_t)((unsigned __int128)n * (unsigned)r / (unsigned)ranks) / chunk * chunk;
     uint64_t hi = r + 1 == ranks ? n
                   : (uint64_t)((unsigned __int128)n * (unsigned)(r + 1) / (unsigned)ranks) /

@@ -41,6 +41,12 @@ int wpd_laz_check(const wpd_header *h, wpd_error *err);
 /* Points per chunk of the LAZ files wpd writes (LASzip's default). */
 #define WPD_LAZ_CHUNK_POINTS 50000u
 
+/* The points per chunk the writer uses: WPD_LAZ_CHUNK_POINTS, or for the
+ * tests that compare wpd's LAZ with LASzip's at other chunk sizes, the
+ * environment's WPD_TEST_LAZ_CHUNK (common/testhook.h). Every process of
+ * one output must see the same value (the ranks' parts are whole chunks). */
+uint32_t wpd_laz_chunk_points(void);
+
 /* Compresses the point records of a LAS writer. The LAS writer does the
  * header, the VLRs (adding the one of wpd_laz_writer_vlr) and the EVLRs;
  * this writes what lies between: the chunk table offset, the chunks and

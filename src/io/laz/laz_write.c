@@ -4,8 +4,8 @@
  *
  * Layout written (LAZ specification 1.4), from the LAS header's offset to
  * the point data: an i64, the file offset of the chunk table (patched at
- * the end); the chunks, each of WPD_LAZ_CHUNK_POINTS points (the last one
- * fewer): the first record raw, the others arithmetic-coded item by item
+ * the end); the chunks, each of wpd_laz_chunk_points() points (the last
+ * one fewer): the first record raw, the others arithmetic-coded item by item
  * (laz_items_enc.c), or, layered, each attribute group in its own stream
  * with the byte counts before them (laz_layered.c); then the chunk table:
  * u32 version 0, u32 chunk count,
@@ -15,6 +15,7 @@
  * so its size is known when the next one starts.
  */
 #include "io/laz/laz.h"
+#include "common/testhook.h"
 #include "io/las/las_internal.h"
 #include "io/laz/laz_items.h"
 #include "io/laz/laz_layered.h"
@@ -107,6 +108,13 @@ void wpd_laz_writer_vlr(const wpd_laz_writer *z, wpd_vlr *v)
 
 /* ---- create ---- */
 
+uint32_t wpd_laz_chunk_points(void)
+{
+    /* LASzip's largest fixed chunk is UINT32_MAX - 1 (the maximum means
+     * variable chunks there). */
+    return (uint32_t)wpd_test_number("WPD_TEST_LAZ_CHUNK", WPD_LAZ_CHUNK_POINTS, UINT32_MAX - 1);
+}
+
 wpd_laz_writer *wpd_laz_writer_create(const char *path, uint8_t pdrf, uint16_t record_length,
                                       wpd_error *err)
 {
@@ -128,7 +136,7 @@ wpd_laz_writer *wpd_laz_writer_create(const char *path, uint8_t pdrf, uint16_t r
     z->info = (wpd_laz_info){.compressed = 1, .compressor = layered ? 3 : 2, .coder = 0,
                              .version_major = layered ? 3 : 2, .version_minor = layered ? 4 : 2,
                              .version_revision = layered ? 3 : 0,
-                             .chunk_size = WPD_LAZ_CHUNK_POINTS};
+                             .chunk_size = wpd_laz_chunk_points()};
     choose_items(&z->info, pdrf, (uint16_t)(record_length - las_pdrf_size[pdrf]));
     encode_vlr(&z->info, z->vlr);
     if (layered ? !(z->layered = laz_layered_create(z->info.items, z->info.nitems)) ||
@@ -227,7 +235,7 @@ int wpd_laz_writer_put(wpd_laz_writer *z, wpd_outfile *f, const uint8_t *rec, si
         } else if (laz_items_encode(z->items, &z->enc, rec)) {
             return fail_memory(z, err);
         }
-        if (++z->in_chunk == WPD_LAZ_CHUNK_POINTS && close_chunk(z, f, err))
+        if (++z->in_chunk == z->info.chunk_size && close_chunk(z, f, err))
             return -1;
     }
     return 0;
