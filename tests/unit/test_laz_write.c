@@ -4,12 +4,16 @@
  * through the public reader to exactly the records of the .las written
  * from the same points, for point formats 0-3 with and without extra
  * bytes, over several chunks. laz2las.js (an independent decoder) checks
- * the same files in tests/e2e/test_laz_write.py. */
+ * the same files in tests/e2e/test_laz_write.py. A chunk LASzip wrote
+ * holds the layered items' scanner channel rule both ways (LASzip itself
+ * is compared on many files in tests/e2e/test_laz_laszip.py). */
 #include "harness.h"
 #include "las_files.h"
 
 #include "io/laz/laz.h"
 #include "io/laz/laz_encoder.h"
+#include "io/laz/laz_items.h"
+#include "io/laz/laz_layered.h"
 #include "io/reader.h"
 
 #include <fcntl.h>
@@ -356,4 +360,106 @@ TEST(laz_writer_refuses_waveform_point_formats)
                   "format %u: %s", pdrf, err.msg);
         wpd_laz_writer_free(z);
     }
+}
+
+/* ---- the layered items' contexts against LASzip ---- */
+
+/* 32 records of point format 8 with 2 extra bytes whose scanner channels
+ * switch to new contexts, back to used ones and stay on channels other
+ * than 0, with colour, NIR and extra bytes changing on every point. */
+static const char layered_channels[] = "11122002331102223011300221133200";
+
+static void layered_record(uint8_t *r, int i)
+{
+    int32_t xyz[3] = {1000 + 7 * i, 2000 - 3 * i, 300 + i * i % 17};
+    uint16_t intensity = (uint16_t)(100 + i % 5), source = 1;
+    uint16_t colour[4] = {(uint16_t)(1000 + 37 * i), (uint16_t)(2000 + 11 * (i % 4)),
+                          (uint16_t)(3000 - 5 * i), (uint16_t)(500 + 3 * i)};
+    double t = 1000.0 + 0.5 * i;
+    memset(r, 0, 40);
+    memcpy(r, xyz, 12);
+    memcpy(r + 12, &intensity, 2);
+    r[14] = 0x11;
+    r[15] = (uint8_t)((layered_channels[i] - '0') << 4);
+    r[16] = 2;
+    memcpy(r + 20, &source, 2);
+    memcpy(r + 22, &t, 8);
+    memcpy(r + 30, colour, 8);
+    r[38] = (uint8_t)(i * 5);
+    r[39] = (uint8_t)(i / 3);
+}
+
+/* The one chunk LASzip (laszip_enc of ../shared/tools/laszip) wrote for
+ * those records: its raw first record, point count, layer byte counts and
+ * layers. */
+static const uint8_t laszip_chunk[] =
+    "\xe8\x03\x00\x00\xd0\x07\x00\x00\x2c\x01\x00\x00\x64\x00\x11\x10\x02\x00\x00\x00\x01\x00\x00\x00\x00\x00\x00\x40\x8f\x40\xe8\x03"
+    "\xd0\x07\xb8\x0b\xf4\x01\x00\x00\x20\x00\x00\x00\x64\x00\x00\x00\x22\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x19\x00\x00\x00"
+    "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\xc5\x00\x00\x00\x86\x00\x00\x00\x2b\x00\x00\x00\x23\x00\x00\x00\x23\x00\x00\x00"
+    "\x20\x3a\x2a\xe2\xea\xf2\x13\x63\x6a\x9e\x2b\x0c\x06\x00\x5d\x8e\xd4\xe6\x1f\x1e\x49\xcd\x53\xf9\x46\x7a\x60\x30\x20\xeb\x23\x64"
+    "\x2a\xcc\xc4\x6e\xe2\xef\x1f\x61\x86\x24\x31\xe0\x1d\x46\xd2\x1e\xff\xbf\x32\x45\x74\xce\x04\xb9\xf4\x06\xc4\xc8\xdf\x74\x09\x8e"
+    "\xe1\x87\xe2\x4a\xc1\x4f\xcd\xe9\xe1\x01\x78\x8a\xc5\x87\x8f\x75\xb8\xa1\xbc\xe2\xc8\xbc\xc7\xd3\xe1\xda\x6e\xe8\xb6\x31\x27\xd5"
+    "\xf0\x92\x00\x00\x04\x2b\xdc\x49\x42\xdb\x17\xda\x3e\x31\x49\x7e\x55\x67\x47\x80\x8b\xa8\xe3\xb7\x04\xd1\x9a\xda\x63\x24\xfc\xda"
+    "\x8f\xd9\xf2\x00\x00\x00\x07\xc1\x52\xb8\x66\x71\x55\x08\x7d\x41\xf0\xfc\xa6\xdb\x07\xdb\x6e\xb5\xaf\x3d\x07\xd5\x00\x00\x00\x44"
+    "\x42\x5c\x2b\x40\x00\x1e\x07\xf3\x49\x00\x00\x0b\xad\x37\x50\xc0\x00\x04\x87\x82\x87\x00\x00\x01\xc8\xb7\xd8\x80\x00\x00\xb1\xd9"
+    "\x75\x4c\x00\x00\x4f\x4b\x2e\xc0\x00\x00\x07\x63\xff\xb6\x80\x00\x02\xe3\x5a\xcb\x60\x00\x01\x35\xe5\x6e\x12\x30\x00\x0e\x7f\x3d"
+    "\x35\xe0\x00\x05\xff\xf1\x55\x38\x00\x00\x4a\x3a\x72\x34\x00\x00\x03\x62\xf9\x7e\x60\x00\x01\x7b\x6e\x58\x80\x00\x01\xa5\x3b\x0a"
+    "\x20\x00\x00\x14\x4e\xfa\x13\xdc\x00\x00\xfd\x64\x99\x58\x00\x00\x0c\xf8\xee\x5e\xc0\x00\x0e\x0a\x11\xe3\x78\x00\x01\x5c\x75\xfa"
+    "\xc9\x90\x00\x24\xa4\x7f\x8b\xc0\x00\x35\x87\x32\x00\x78\x00\x07\x5c\xb9\x7b\x60\x00\x0a\x08\xb9\x94\x58\x00\x01\x3f\xf9\xae\xc0"
+    "\x00\x01\x60\x88\xe0\x3c\x00\x00\x12\x0c\x36\x3b\x00\x00\x19\xe0\x26\x3c\x00\x00\x03\xd5\x26\xcf\xac\x00\x00\x79\x7a\x7c\xf1\xc0"
+    "\x00\x80\x00\x00\xae\x49\x9a\x35\xd9\xa2\xc2\x79\xa6\xc5\x85\x4b\x37\x8b\x08\x88\x52\xc7\x50\x19\x0f\x4c\x27\x9a\x6c\x58\x54\xb3"
+    "\x77\x1f\x1c\x22\x61\xa1\x3a\xd3\xeb\xe4\x97\x17\x78\x7d\x08\xe6\x52\x57\x79\x57\xf2\x83\x32\x13\xad\x3e\xbf\x09\x59\xc4\x32\xfa"
+    "\x17\xa5\xe9\xcc\x50\x88\x85\x27\xe6\x6f\x88\x72\xd6\x54\x32\xd2\x99\xbe\x21\xcb\x57\xf2\x82\xc0\x07\xb0\xbd\x0b\xd2\xf4\xe6\x28"
+    "\x54\xb3\x7a\xfc\x25\xf7\x82\xa2\x6b\x14\x4a\xed\xb5\x04\xc9\x93\xc8\xad\x00\x4f\xe2\xd4\x13\x26\x4f\x62\x85\xe3\xf7\xf4\xba\x02"
+    "\x6e\x26\x9c\x1a\xd0\x04\xa8\x00\x00\x00\x40\xd0\x12\x6d\x61\x21\x62\x08\x08\x2a\x06\x8a\x7c\x5f\x20\xea\xb1\xad\xd2\x34\x87\xf3"
+    "\x2b\x96\xea\x1d\xbe\xb8\x8b\x45\xed\x8f\xe5\x8f\x97\xb2\x2f\x1e\xc4\x15\xec\x00\x00\x05\x05\x02\x82\x8c\x82\x7d\x91\x82\x85\x34"
+    "\x82\x69\xad\x07\x6c\x23\x07\x94\x05\x00\x04\xfb\x2d\x07\x8a\x05\x11\x85\x0c\x84\xf1\x00\x00\x00\x00\x00\x01\x00\x00\x80\xff\x80"
+    "\x81\x00\x82\x80\x7e\x82\x80\xfe\x81\x81\x01\xff\x80\x80\xff\x03\x81\x00\x00\x80\xff\x81\x00\xff\x00\x00\x00";
+
+/* LASzip hands the colour and extra-byte items the new channel on a point
+ * that switches channel and context 0 on every other point (not the
+ * point's channel): both directions must follow it to the byte. */
+TEST(laz_layered_channel_contexts_match_laszip)
+{
+    static const wpd_laz_item items[] = {{LAZ_ITEM_POINT14, 30, 3}, {LAZ_ITEM_RGBNIR14, 8, 3},
+                                         {LAZ_ITEM_BYTE14, 2, 3}};
+    uint8_t want[40], got[40];
+    const char *why = NULL;
+    uint32_t count = 0;
+    const size_t size = sizeof laszip_chunk - 1;
+    char path[1024];
+    cf_tmp_path(path, sizeof path, "laszip_chunk.bin");
+    CHECK(cf_write_file(path, laszip_chunk, size) == 0);
+    int fd = open(path, O_RDONLY);
+    laz_in in;
+    CHECK(fd >= 0 && laz_in_init(&in, fd, 4096) == 0);
+    laz_in_seek(&in, 0, size);
+    laz_layered *L = laz_layered_create(items, 3);
+    CHECK_MSG(L && laz_layered_open(L, &in, size, 40, got, &count, &why) == 0, "%s",
+              why ? why : "");
+    layered_record(want, 0);
+    CHECK(count == 32 && !memcmp(got, want, 40));
+    for (int i = 1; i < 32 && L; i++) {
+        layered_record(want, i);
+        int rc = laz_layered_decode(L, got, &why);
+        CHECK_MSG(rc == 0 && !memcmp(got, want, 40), "record %d: %s", i, rc ? why : "differs");
+    }
+    CHECK(L && laz_layered_close(L) == NULL);
+    laz_layered_free(L);
+    laz_in_free(&in);
+    close(fd);
+
+    laz_out out = {0};
+    L = laz_layered_create(items, 3);
+    layered_record(want, 0);
+    CHECK(L && laz_layered_start_encode(L, want) == 0);
+    for (int i = 1; i < 32 && L; i++) {
+        layered_record(got, i);
+        CHECK(laz_layered_encode(L, got) == 0);
+    }
+    CHECK(L && laz_layered_finish(L, &out, want, 40, 32) == 0);
+    CHECK_MSG(out.len == size && !memcmp(out.buf, laszip_chunk, size),
+              "our chunk: %zu bytes, LASzip's %zu", out.len, size);
+    laz_out_free(&out);
+    laz_layered_free(L);
 }
