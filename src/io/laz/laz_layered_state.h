@@ -8,8 +8,9 @@
  * extension)", rapidlasso): after a chunk's raw first record, every
  * attribute group is its own arithmetic-coded stream (layer) with its
  * byte count stored before the layers, so a reader can skip the layers it
- * does not need. Predictions are made from the previous point of the same
- * scanner channel: each item keeps up to four contexts.
+ * does not need. Each item keeps up to four contexts: POINT14 one per
+ * scanner channel, the others one per context number POINT14 hands them
+ * (below; docs/formats.md, "Scanner channels").
  */
 #ifndef WPD_LAZ_LAYERED_STATE_H
 #define WPD_LAZ_LAYERED_STATE_H
