@@ -21,10 +21,10 @@ TEST_OBJ := $(TEST_SRC:%.c=build/%.o)
 # Debian packages needed to build and test (Open MPI for the MPI build and
 # its tests).
 DEB_PKGS := gcc make libzstd-dev libpng-dev libc6-dev python3 python3-numpy bc \
-            openmpi-bin libopenmpi-dev python3-pytest python3-pytest-xdist
+            openmpi-bin libopenmpi-dev python3-pytest python3-pytest-xdist cmake g++
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: all test test-full test-build demo bench install clean deps lazperf
+.PHONY: all test test-full test-build demo bench install clean deps lazperf laszip
 
 all: wpd
 
@@ -83,7 +83,7 @@ deps:
 
 # The test tiers (docs/testing.md): `make test` the fast one, `make
 # test-full` every test.
-test-build: deps lazperf
+test-build: deps lazperf laszip
 	$(MAKE) -j$(JOBS) wpd build/unit_tests
 	if command -v $(MPICC) >/dev/null; then $(MAKE) -j$(JOBS) wpd-mpi; fi
 
@@ -103,6 +103,25 @@ lazperf:
 	  mkdir -p $(LAZPERF_DIR) && npm install -s --no-audit --no-fund --prefix $(LAZPERF_DIR) laz-perf@0.0.7 >/dev/null || \
 	  echo "lazperf: npm could not install laz-perf; the laz2las.js checks will SKIP"; \
 	else echo "lazperf: no npm; the laz2las.js checks will SKIP"; fi
+
+# LASzip, the reference LAZ implementation the tests compare our LAZ with
+# both ways (tests/e2e/test_laz_laszip.py) and bench/laz.sh times, built
+# once from ../shared/tools/laszip (its sources and build.sh) into
+# build/laszip. Best effort: without cmake, g++ or the sources those tests
+# SKIP.
+LASZIP_SRC := ../shared/tools/laszip
+LASZIP_DIR := build/laszip
+laszip:
+	@if [ -x $(LASZIP_DIR)/laszip_dump ] && [ -x $(LASZIP_DIR)/laszip_enc ] && \
+	    [ -x $(LASZIP_DIR)/laszip_dec ]; then :; \
+	elif [ ! -x $(LASZIP_SRC)/build.sh ]; then \
+	  echo "laszip: no $(LASZIP_SRC)/build.sh; the LASzip checks will SKIP"; \
+	elif ! command -v cmake >/dev/null || ! command -v g++ >/dev/null; then \
+	  echo "laszip: no cmake or g++; the LASzip checks will SKIP"; \
+	else echo "laszip: building LASzip into $(LASZIP_DIR) (about a minute)"; \
+	  $(LASZIP_SRC)/build.sh $(LASZIP_DIR) >/dev/null || \
+	  echo "laszip: the build failed (see $(LASZIP_DIR)/cmake.log); the LASzip checks will SKIP"; \
+	fi
 
 demo: deps
 	$(MAKE) wpd
