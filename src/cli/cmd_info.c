@@ -330,6 +330,8 @@ static int info_one(const char *path, const info_options *opt, int first, wpd_er
     uint64_t by_return[16] = {0};
     uint64_t dropped = 0;
     int rc = opt->header_only ? 0 : scan_points(cloud, &b, by_return, &dropped, err);
+    if (rc) /* what is odd about the file may explain why its points cannot be read */
+        wpd_warnings_print(stderr, "info", &h->warnings);
     if (rc == 0) {
         const wpd_bounds *pb = opt->header_only ? NULL : &b;
         wpd_warnings w = h->warnings;

@@ -5,9 +5,8 @@
 #define WPD_COMMANDS_H
 
 #include "common/error.h"
+#include "common/version.h"
 #include "par/par.h"
-
-#define WPD_VERSION "0.1.0"
 
 int wpd_cmd_info(int argc, char **argv);
 int wpd_cmd_convert(int argc, char **argv);

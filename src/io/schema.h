@@ -77,6 +77,8 @@ typedef struct wpd_laz_info {
     uint16_t nitems;
     wpd_laz_item items[WPD_LAZ_MAX_ITEMS];
     uint64_t chunks;              /* chunks in the chunk table, 0 if none read */
+    int wpd_vlr;                  /* 1: the VLR's description is the one wpd's
+                                     writer gives it (WPD_LAZ_VLR_DESCRIPTION) */
 } wpd_laz_info;
 
 typedef struct wpd_las_info {

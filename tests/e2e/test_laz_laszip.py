@@ -730,6 +730,27 @@ def test_laz_laszip_gps_negative_zero():
                      "point data differ"], kinds
 
 
+def test_laz_laszip_file_of_wpd_las_does_not_warn():
+    """LASzip's LAZ of a LAS that says "wpd" as generating software (as
+    every LAS of wpd before 0.2.0 does), scanner channels changing within
+    the chunk, colour and extra bytes: no old-wpd warning, even with
+    "wpd" in its header, since its LASzip VLR is LASzip's, not wpd's."""
+    laszip("laszip_enc")
+    recs, so = variant("extra_bytes", 7, 3000, 1000)
+    write_las("v.las", 7, recs, so)
+    with open("v.las", "r+b") as f:
+        f.seek(58)
+        f.write(b"wpd".ljust(32, b"\0"))
+    assert run(laszip("laszip_enc"), "v.las", "lz.laz", 1).returncode == 0
+    with open("lz.laz", "r+b") as f:
+        f.seek(58)
+        f.write(b"wpd".ljust(32, b"\0"))
+    for cmd in (("info", "lz.laz"), ("convert", "lz.laz", "o.las")):
+        p = run(WPD, *cmd)
+        assert p.returncode == 0 and "older wpd" not in p.stderr, (cmd, p.stderr)
+    assert same_records("o.las", recs)
+
+
 def test_laz_laszip_bad_files():
     """The damaged LAS files of ../shared/data/bad: wpd refuses what LASzip
     cannot read either (a file cut short, a VLR count of a billion) and

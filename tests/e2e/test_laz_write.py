@@ -10,6 +10,7 @@ laz2las.js needs node and laz-perf 0.0.7: LAZPERF_NODE_PATH names the
 node_modules folder holding it (default build/npm/node_modules, where
 `make test` installs it, or ../npm/node_modules beside the repository);
 without node or laz-perf those checks SKIP, saying so."""
+import json
 import os
 import re
 import shutil
@@ -300,3 +301,65 @@ def test_laz_layered_scanner_channels_decode_with_laz_perf():
         wpd("convert", "v.las", "v.laz", "--force")
         wpd("convert", "v.las", "ref.las", "--force")
         check_same_as_las("v.laz", "ref.las")
+
+
+def with_software(src, dst, software):
+    """A copy of LAS/LAZ file src whose generating software (header bytes
+    58-89) is software."""
+    b = bytearray(read(src))
+    b[58:90] = software.encode().ljust(32, b"\0")
+    with open(dst, "wb") as f:
+        f.write(b)
+
+
+OLD_WPD = "written by an older wpd with a known LAZ scanner channel bug"
+
+
+def old_wpd_warnings(path):
+    """For each way of reading path (info, info --header-only, info --json:
+    stderr and the file's "warnings", convert, resample), the lines that
+    are the old-wpd warning; asserts that each run succeeds."""
+    seen = {}
+    for label, cmd in (("info", ("info", path)), ("header-only", ("info", "--header-only", path)),
+                       ("json", ("info", "--json", path)),
+                       ("convert", ("convert", path, "o.las", "--force")),
+                       ("resample", ("resample", path, "-o", "r.las", "-n", 300, "--force"))):
+        p = wpd(*cmd)
+        seen[label] = [l for l in p.stderr.splitlines() if OLD_WPD in l]
+        if label == "json":
+            seen["json warnings"] = [w for w in json.loads(p.stdout)["files"][0]["warnings"]
+                                     if OLD_WPD in w]
+    return seen
+
+
+def test_laz_old_wpd_file_with_channel_changes_warns():
+    """wpd before 0.2.0 wrote layered LAZ whose colour, NIR and extra bytes
+    took the point's scanner channel as their context: wrong where a
+    chunk's points change channel. Its files say "wpd" as generating
+    software and carry wpd's LASzip VLR; this wpd writes its version too.
+    Every reader warns in one line on such a file whose first chunk
+    changes channel (made here by setting a new file's software to "wpd"),
+    and on nothing else: not on this wpd's files, not on old ones whose
+    chunk keeps one channel or that have no item but POINT14."""
+    varied_las14("v.las", 3000, pdrf=7, extra=3)  # channels change every 300 points
+    wpd("convert", "v.las", "new.laz")
+    assert read("new.laz")[58:90].rstrip(b"\0") == b"wpd 0.2.0"
+    assert read("v.las")[58:90] != read("new.laz")[58:90]
+    quiet = {k: [] for k in ("info", "header-only", "json", "json warnings", "convert",
+                             "resample")}
+    assert old_wpd_warnings("new.laz") == quiet
+    with_software("new.laz", "old.laz", "wpd")
+    seen = old_wpd_warnings("old.laz")
+    for label, lines in seen.items():
+        assert len(lines) == 1 and "re-create the file from its source" in lines[0], seen
+        command = label if label in ("convert", "resample") else "info"
+        assert lines[0].startswith("old.laz: " if label == "json warnings" else
+                                   "wpd %s: warning: old.laz: " % command), (label, lines)
+    # One channel a chunk, or POINT14 alone (format 6 without extra bytes):
+    # old files read right, no warning.
+    varied_las14("one.las", 3000, pdrf=8, extra=3, channels=False)
+    varied_las14("six.las", 3000, pdrf=6, extra=0)
+    for src in ("one.las", "six.las"):
+        wpd("convert", src, "x.laz", "--force")
+        with_software("x.laz", "old_x.laz", "wpd")
+        assert old_wpd_warnings("old_x.laz") == quiet, src

@@ -4,6 +4,7 @@
 #include "harness.h"
 #include "las_files.h"
 
+#include "common/version.h"
 #include "io/reader.h"
 #include "io/writer.h"
 
@@ -280,7 +281,7 @@ static void check_round_trip(const char *dir, const manifest_row *row, void *vct
                       hb->las.creation_year == ha->las.creation_year &&
                       !memcmp(hb->las.guid, ha->las.guid, 16) &&
                       !strcmp(hb->las.system_id, ha->las.system_id) &&
-                      !strcmp(hb->las.software, "wpd"),
+                      !strcmp(hb->las.software, WPD_SOFTWARE),
                   "%s: header facts differ", path);
         /* Output bounds are those of the records written. */
         for (int k = 0; k < 3 && pb.n; k++) {
@@ -613,7 +614,7 @@ TEST(las_writer_header_fields)
     CHECK(legacy == 0 && count == 9); /* PDRF 6: legacy count 0 */
     CHECK(by_return[0] == 3 && by_return[1] == 3 && by_return[2] == 3);
     CHECK(minx == 990.0);
-    CHECK(!memcmp(out + 58, "wpd\0", 4));
+    CHECK(!memcmp(out + 58, WPD_SOFTWARE, sizeof WPD_SOFTWARE)); /* with its NUL */
     CHECK(!memcmp(out + 26, "synthetic", 9));
     cf_cloud_free(&p);
     wpd_reader_close(r);

@@ -371,6 +371,8 @@ static int take_laszip_vlr(wpd_reader *r, uint32_t i, wpd_error *err)
                         r->hdr.path);
     if (wpd_laz_parse_vlr(r->hdr.path, v->data, v->length, &las->laz, err))
         return -1;
+    las->laz.wpd_vlr = !strncmp(v->description, WPD_LAZ_VLR_DESCRIPTION,
+                                strlen(WPD_LAZ_VLR_DESCRIPTION));
     drop_record(las->vlrs, &las->nvlr, i);
     return 0;
 }

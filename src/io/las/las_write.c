@@ -8,11 +8,12 @@
  * of the points actually written. Header facts that identify the data
  * (creation date, system id, GUID, file source id, global encoding) are
  * carried over unchanged so that output is deterministic; only the
- * generating software becomes "wpd".
+ * generating software becomes wpd's, with its version (common/version.h).
  */
 #include "io/format.h"
 #include "io/las/las_internal.h"
 #include "io/laz/laz.h"
+#include "common/version.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -73,7 +74,7 @@ static void encode_header(const wpd_writer *w, const las_writer *L, const header
     h[LAS_OFF_VERSION_MAJOR] = las->version_major;
     h[LAS_OFF_VERSION_MINOR] = las->version_minor;
     memcpy(h + LAS_OFF_SYSTEM_ID, las->system_id, 32); /* all 32 bytes, as read */
-    put_text(h + LAS_OFF_SOFTWARE, "wpd", 32);
+    put_text(h + LAS_OFF_SOFTWARE, WPD_SOFTWARE, 32);
     las_put_u16(h + LAS_OFF_DAY, las->creation_day);
     las_put_u16(h + LAS_OFF_YEAR, las->creation_year);
     las_put_u16(h + LAS_OFF_HEADER_SIZE, L->header_size);

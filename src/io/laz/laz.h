@@ -16,6 +16,10 @@
 /* The LASzip VLR's identity. */
 #define WPD_LAZ_VLR_USER "laszip encoded"
 #define WPD_LAZ_VLR_RECORD 22204
+/* How the description of the LASzip VLR wpd writes starts (the compressor's
+ * name follows in brackets): with the generating software, it tells LAZ
+ * written by wpd from LAZ that another program made of wpd's LAS. */
+#define WPD_LAZ_VLR_DESCRIPTION "wpd LAZ"
 
 /* Name of LASzip item type t ("POINT10", ...; "unknown" for others). */
 const char *wpd_laz_item_name(uint16_t type);

@@ -109,6 +109,13 @@ void laz_layered_xyz_only(laz_layered *L, int xyz_only)
     L->xyz_only = xyz_only;
 }
 
+unsigned laz_layered_channels(const laz_layered *L)
+{
+    /* POINT14 is the first item (laz_vlr.c checks it) and marks each
+     * channel whose context it starts in the chunk. */
+    return L->n && L->it[0].type == LAZ_ITEM_POINT14 ? L->it[0].u.p->used : 0;
+}
+
 /* Whether layer i is needed: all, or those of X Y (the XY layer, which
  * also carries what every other layer depends on) and Z. */
 static int wanted(const laz_layered *L, uint32_t i)

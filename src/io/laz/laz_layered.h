@@ -26,6 +26,10 @@ void laz_layered_free(laz_layered *L);
  * only. */
 void laz_layered_xyz_only(laz_layered *L, int xyz_only);
 
+/* The scanner channels the open chunk's points have had so far, as bits
+ * (bit c: channel c): more than one bit means a point changed channel. */
+unsigned laz_layered_channels(const laz_layered *L);
+
 /* Opens the chunk at in's position, whose bytes end at limit: reads the
  * raw first record (record_length bytes) into rec, the chunk's point
  * count into *count and the layers, and leaves in after the chunk.

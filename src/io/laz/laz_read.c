@@ -19,6 +19,7 @@
 #include "io/laz/laz_items.h"
 #include "io/laz/laz_layered.h"
 #include "io/record_cache.h"
+#include "common/version.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -415,6 +416,54 @@ static const wpd_reader_ops laz_ops_sequential = {laz_read, NULL, laz_close,
 
 /* ---- opening ---- */
 
+/* A layered file that wpd wrote before 0.2.0 (generating software "wpd"
+ * alone and wpd's LASzip VLR) with colour, NIR or extra bytes: those items
+ * then took the point's scanner channel as their context, where LASzip's
+ * rule (and this reader) takes the new channel on a point that changes
+ * channel and context 0 on the others. The two agree while a chunk keeps
+ * one channel (a context that only the raw first point set starts another
+ * unchanged), and POINT14 itself was right: only files with such items
+ * whose points change channel within a chunk read wrong. */
+static int old_wpd_layered(const wpd_reader *r)
+{
+    const wpd_las_info *l = &r->hdr.las;
+    if (l->laz.compressor != 3 || !l->laz.wpd_vlr || strcmp(l->software, WPD_SOFTWARE_OLD))
+        return 0;
+    for (uint16_t i = 0; i < l->laz.nitems; i++)
+        if (l->laz.items[i].type != LAZ_ITEM_POINT14)
+            return 1;
+    return 0;
+}
+
+/* For old_wpd_layered files: decodes the first chunk's X, Y and Z (the
+ * scanner channel is coded with them) and warns, in one line, when its
+ * points change channel. Only the first chunk is looked at, so that an
+ * open costs one chunk at most; multi-channel scanners interleave their
+ * channels throughout a file. The reader is then back at the first point,
+ * every layer wanted; a damaged chunk is left for the read to report. */
+static void check_old_wpd(wpd_reader *r, laz_reader *z)
+{
+    if (!old_wpd_layered(r) || !r->hdr.point_count)
+        return;
+    wpd_error ignored;
+    unsigned channels = 0;
+    laz_layered_xyz_only(z->layered, 1);
+    while (z->chunk == 0 && z->next < r->hdr.point_count && channels < 2 &&
+           next_point(r, z, z->scratch, &ignored) == 0) {
+        unsigned used = laz_layered_channels(z->layered);
+        channels = (used & 1) + (used >> 1 & 1) + (used >> 2 & 1) + (used >> 3 & 1);
+    }
+    laz_layered_xyz_only(z->layered, 0);
+    z->chunk = z->chunk_left = z->next = z->skip_to = z->marked = 0;
+    laz_in_seek(&z->in, z->data_start, z->data_end);
+    if (channels > 1)
+        wpd_warn(&r->hdr.warnings,
+                 "%s: written by an older wpd with a known LAZ scanner channel bug (its "
+                 "points change channel within a chunk: colour, NIR and extra bytes decode "
+                 "wrong or not at all); re-create the file from its source",
+                 r->hdr.path);
+}
+
 /* Chunk table, or the sequential fallback with a warning; variable chunks
  * cannot be found without the table. Sets *points_end. */
 static int find_chunks(wpd_reader *r, laz_reader *z, uint64_t *points_end, wpd_error *err)
@@ -478,5 +527,6 @@ int wpd_laz_open_reader(wpd_reader *r, uint64_t *points_end, wpd_error *err)
     if (find_chunks(r, z, points_end, err))
         return -1;
     laz_in_seek(&z->in, z->data_start, z->data_end);
+    check_old_wpd(r, z);
     return 0;
 }

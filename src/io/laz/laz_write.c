@@ -99,7 +99,7 @@ void wpd_laz_writer_vlr(const wpd_laz_writer *z, wpd_vlr *v)
 {
     memset(v, 0, sizeof *v);
     snprintf(v->user_id, sizeof v->user_id, "%s", WPD_LAZ_VLR_USER);
-    snprintf(v->description, sizeof v->description, "wpd LAZ (%s)",
+    snprintf(v->description, sizeof v->description, WPD_LAZ_VLR_DESCRIPTION " (%s)",
              wpd_laz_compressor_name(z->info.compressor));
     v->record_id = WPD_LAZ_VLR_RECORD;
     v->length = LAZ_VLR_FIXED + LAZ_VLR_ITEM * (uint64_t)z->info.nitems;
