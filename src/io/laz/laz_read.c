@@ -427,7 +427,10 @@ static const wpd_reader_ops laz_ops_sequential = {laz_read, NULL, laz_close,
 static int old_wpd_layered(const wpd_reader *r)
 {
     const wpd_las_info *l = &r->hdr.las;
-    if (l->laz.compressor != 3 || !l->laz.wpd_vlr || strcmp(l->software, WPD_SOFTWARE_OLD))
+    /* Those versions always wrote chunks of WPD_LAZ_CHUNK_POINTS: that also
+     * bounds what the check below decodes. */
+    if (l->laz.compressor != 3 || !l->laz.wpd_vlr || strcmp(l->software, WPD_SOFTWARE_OLD) ||
+        l->laz.chunk_size != WPD_LAZ_CHUNK_POINTS)
         return 0;
     for (uint16_t i = 0; i < l->laz.nitems; i++)
         if (l->laz.items[i].type != LAZ_ITEM_POINT14)
@@ -448,7 +451,8 @@ static void check_old_wpd(wpd_reader *r, laz_reader *z)
     wpd_error ignored;
     unsigned channels = 0;
     laz_layered_xyz_only(z->layered, 1);
-    while (z->chunk == 0 && z->next < r->hdr.point_count && channels < 2 &&
+    while (z->chunk == 0 && z->next < r->hdr.point_count && z->next < WPD_LAZ_CHUNK_POINTS &&
+           channels < 2 &&
            next_point(r, z, z->scratch, &ignored) == 0) {
         unsigned used = laz_layered_channels(z->layered);
         channels = (used & 1) + (used >> 1 & 1) + (used >> 2 & 1) + (used >> 3 & 1);
