@@ -19,10 +19,15 @@ array and undocumented extra bytes) and, for LAS 1.3/1.4, an EVLR.
 
 LAZ: every file under DATA_DIR/laz, whole when it is small, else cut to
 the first points of its first chunk (laz_seed): decoding is the cost of an
-execution, so the seeds hold few points.
+execution, so the seeds hold few points. Then the committed seeds of
+tests/fuzz/seeds-laz (make_laz_seeds.py: LASzip's LAZ of synthetic points
+for what the data lacks - scanner channels changing within a chunk with
+colour, NIR and extra bytes, small chunks, formats 0-3 - and an older
+wpd's file), copied as they are.
 
-The seeds are build products: never commit them (the data's licences are
-the data's). Nothing here is random: the same data gives the same seeds.
+The seeds made here are build products: never commit them (the data's
+licences are the data's). Nothing here is random: the same data gives the
+same seeds.
 """
 import hashlib
 import os
@@ -433,6 +438,10 @@ def main():
             for _, path in files(data_dir, ("laz",), ".laz"):
                 with open(path, "rb") as f:
                     n += save(d, [laz_seed(f.read(), max_len)], seen)
+            for _, path in files(os.path.dirname(os.path.abspath(__file__)), ("seeds-laz",),
+                                 ".laz"):
+                with open(path, "rb") as f:
+                    n += save(d, [f.read()[:max_len]], seen)
         elif kind == "ply":
             for _, path in files(data_dir, ("ply", "scans", "bad"), ".ply"):
                 with open(path, "rb") as f:
