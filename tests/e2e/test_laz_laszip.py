@@ -751,6 +751,31 @@ def test_laz_laszip_file_of_wpd_las_does_not_warn():
     assert same_records("o.las", recs)
 
 
+def test_laz_laszip_refused_laz_reads_after_laszip():
+    """The LAZ files wpd refuses and what docs/formats.md tells to do with
+    them: LASzip 1.x items (pdal_simple-laszip-compressor-version-1.2r0)
+    recompressed by a current LASzip read in wpd to the records LASzip
+    decodes (pdal_simple.las's); waveform packets (rlas_fwf, format 4)
+    decompressed by LASzip read in wpd as LAS, the packet descriptors kept
+    record for record."""
+    laszip("laszip_enc")
+    v1 = data("laz", "pdal_simple-laszip-compressor-version-1.2r0.laz")
+    fwf = data("laz", "rlas_fwf.laz")
+    for src in (v1, fwf):
+        assert run(WPD, "info", src).returncode == 2, src
+    assert run(laszip("laszip_enc"), v1, "v2.laz", 1).returncode == 0
+    assert run(laszip("laszip_enc"), v1, "v1.las", 0).returncode == 0
+    r = run(WPD, "convert", "v2.laz", "v2.las")
+    assert r.returncode == 0, r.stderr
+    want = las_records("v1.las")[2]
+    assert same_records("v2.las", want) and same_records(data("las", "pdal_simple.las"), want)
+    assert run(laszip("laszip_enc"), fwf, "fwf.las", 0).returncode == 0
+    r = run(WPD, "convert", "fwf.las", "fwf_out.las")
+    assert r.returncode == 0, r.stderr
+    assert same_records("fwf_out.las", las_records("fwf.las")[2])
+    assert las_records("fwf.las")[0] == 4
+
+
 def test_laz_laszip_bad_files():
     """The damaged LAS files of ../shared/data/bad: wpd refuses what LASzip
     cannot read either (a file cut short, a VLR count of a billion) and
