@@ -70,6 +70,12 @@ def las_facts(b):
             struct.unpack_from("<I", b, 96)[0])
 
 
+def head_facts(path):
+    """las_facts of the LAS or LAZ file at path."""
+    with open(path, "rb") as f:
+        return las_facts(f.read(375))
+
+
 def las_records(path):
     """(point format, scale and offset (6 doubles), records as an n x length
     uint8 array) of a LAS file."""
@@ -677,8 +683,7 @@ def test_laz_laszip_small_files(pdrf):
     reads in wpd to the original points, wpd's LAZ in LASzip, and wpd's
     LAZ is LASzip's but for the header."""
     laszip("laszip_enc")
-    paths = [p for p in data_las(("las", "laz"), FAST_FILE_POINTS)
-             if las_facts(open(p, "rb").read(375))[0] == pdrf]
+    paths = [p for p in data_las(("las", "laz"), FAST_FILE_POINTS) if head_facts(p)[0] == pdrf]
     s = Sweep()
     sweep_real(s, None, small_chunks=False, paths=paths)
     assert not s.problems, s.verdict()

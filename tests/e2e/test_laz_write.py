@@ -343,8 +343,10 @@ def test_laz_old_wpd_file_with_channel_changes_warns():
     chunk keeps one channel or that have no item but POINT14."""
     varied_las14("v.las", 3000, pdrf=7, extra=3)  # channels change every 300 points
     wpd("convert", "v.las", "new.laz")
-    assert read("new.laz")[58:90].rstrip(b"\0") == b"wpd 0.2.0"
-    assert read("v.las")[58:90] != read("new.laz")[58:90]
+    software = read("new.laz")[58:90].rstrip(b"\0")
+    assert software.startswith(b"wpd ") and len(software) > 4, software  # "wpd VERSION"
+    wpd("convert", "v.las", "new.las")
+    assert read("new.las")[58:90] == read("new.laz")[58:90]  # LAS says the same
     quiet = {k: [] for k in ("info", "header-only", "json", "json warnings", "convert",
                              "resample")}
     assert old_wpd_warnings("new.laz") == quiet
