@@ -285,7 +285,7 @@ $(COV_DIR)/wpd-mpi: $(COV_MAIN_OBJ) $(COV_DIR)/mpi/par_mpi.o $(COV_DIR)/libwpd.a
 $(COV_DIR)/unit_tests: $(COV_TEST_OBJ) $(COV_DIR)/libwpd.a
 	$(CC) $(LDFLAGS) --coverage -o $@ $^ $(LDLIBS)
 
-coverage-build: deps lazperf
+coverage-build: deps lazperf laszip
 	@$(MAKE) --no-print-directory -j$(JOBS) $(COV_DIR)/wpd $(COV_DIR)/unit_tests \
 	    $(if $(shell command -v $(MPICC)),$(COV_DIR)/wpd-mpi)
 
