@@ -343,7 +343,7 @@ def test_input_that_shrinks_while_read_is_an_input_error():
     """The header promised more than the file holds when read: the reads
     end early (the file was truncated by another program mid-run), in the
     first pass over the input or in a later one of the engine."""
-    for src in (synth(100_000, "las"), synth(100_000, "ply"),
+    for src in (synth(50_000, "las"), synth(50_000, "ply"),
                 synth(30_000, "ply", ascii_ply=True)):
         for path_name, extra in PATHS.items():
             extra = parallel_reads(path_name, extra)
@@ -360,7 +360,7 @@ def test_input_that_shrinks_while_read_is_an_input_error():
 # ------------------------------------------------------------------ read errors
 
 def test_read_error_is_an_io_error_naming_the_file():
-    for src in (synth(100_000, "las"), synth(100_000, "ply"),
+    for src in (synth(50_000, "las"), synth(50_000, "ply"),
                 synth(30_000, "ply", ascii_ply=True)):
         for path_name, extra in PATHS.items():
             extra = parallel_reads(path_name, extra)
@@ -505,7 +505,7 @@ def test_allocation_failures_end_cleanly_in_every_phase():
     spread over the whole run, on both paths: exit 4 with a message about
     memory, or success when the failure was absorbed (sorting falls back,
     sweeps are best effort); never a crash, and cleanup holds."""
-    src = synth(100_000, "las")
+    src = synth(30_000, "las")
     seed = random.randrange(1 << 30)
     seed = int(os.environ.get("WPD_FAULT_SEED", seed))
     print("  seed %d (WPD_FAULT_SEED=%d reproduces)" % (seed, seed))

@@ -30,6 +30,9 @@ def mpirun(ranks, *args, rank1_prefix=None, rank1_args=(), check=True):
     second rank runs wpd-mpi under, rank1_args: arguments added to its
     command line (the other ranks run it plainly)."""
     base = launcher()
+    # A test's chunk size (test_every_rank_writes_its_share...) reaches every rank.
+    if "WPD_TEST_LAZ_CHUNK" in os.environ:
+        base = base + ["-x", "WPD_TEST_LAZ_CHUNK"]
     argv = [WPD_MPI, *map(str, args)]
     if rank1_prefix is None and not rank1_args:
         cmd = base + ["-np", str(ranks)] + argv
@@ -49,7 +52,7 @@ def synth(path, n, seed):
     wpd("synth", "-n", n, "--seed", seed, "-o", path, "--force")
 
 
-@pytest.mark.parametrize("points,rank_counts", [(60000, (1, 2, 3)),
+@pytest.mark.parametrize("points,rank_counts", [(30000, (1, 2, 3)),
                                                 slow(300000, (1, 2, 3, 4))])
 def test_every_rank_count_gives_the_plain_bytes(points, rank_counts):
     synth("in.las", points, 3)
@@ -153,26 +156,30 @@ def report_writers(path):
         return json.load(f)["writers"]
 
 
-@pytest.mark.parametrize("points,smooth,rank_counts", [(150000, ("--no-smooth",), (3,)),
-                                                       slow(300000, (), (2, 3))])
-def test_every_rank_writes_its_share_of_one_output(points, smooth, rank_counts):
+@pytest.mark.parametrize("points,n,chunk,smooth,rank_counts", [
+    (30000, 13000, 5000, ("--no-smooth",), (3,)), slow(300000, 130000, None, (), (2, 3))])
+def test_every_rank_writes_its_share_of_one_output(monkeypatch, points, n, chunk, smooth,
+                                                   rank_counts):
     """Each rank reads the records of its share (whole LAZ chunks, rank 0's
-    empty on 3 ranks at 130 000 points) and writes them: rank 0 into the
+    empty on 3 ranks at n = 2.6 chunks) and writes them: rank 0 into the
     output, the others through part files placed at their offsets; the
     bytes are the plain binary's for LAS, LAZ and ASCII PLY, and for an
     input whose non-finite points shift the global indices. (The fast
-    tier's run does not smooth: what is checked is the writing.)"""
+    tier's run takes LAZ chunks of 5 000 points and does not smooth: what
+    is checked is the writing.)"""
+    if chunk:
+        monkeypatch.setenv("WPD_TEST_LAZ_CHUNK", str(chunk))
     synth("in.las", points, 12)
-    nonfinite_ply("nan.ply", 200000)
+    nonfinite_ply("nan.ply", 2 * n)
     os.makedirs("spill")
     cases = [("in.las", "las", ()), ("in.las", "laz", ("--min-tiles", 4)),
              ("in.las", "ply", ("--ascii",)), ("nan.ply", "ply", ("--min-tiles", 3))]
     for src, ext, opts in cases:
         opts = (*opts, *smooth)
-        wpd("resample", src, "-o", "plain." + ext, "-n", 130000, "-q", "--force",
+        wpd("resample", src, "-o", "plain." + ext, "-n", n, "-q", "--force",
             "--report", "plain.json", *opts)
         for ranks in rank_counts:
-            mpirun(ranks, "resample", src, "-o", "mpi." + ext, "-n", 130000, "-q", "--force",
+            mpirun(ranks, "resample", src, "-o", "mpi." + ext, "-n", n, "-q", "--force",
                    "--tmpdir", "spill", "--report", "r.json", *opts)
             assert filecmp.cmp("plain." + ext, "mpi." + ext, shallow=False), (src, ext, ranks)
             assert report_writers("r.json") == ranks, (src, ext, ranks)
@@ -182,9 +189,9 @@ def test_every_rank_writes_its_share_of_one_output(points, smooth, rank_counts):
             assert os.listdir("spill") == [], os.listdir("spill")
     # Where the records cannot be read from a share (--metrics keeps every
     # output point on rank 0), rank 0 writes alone: the same bytes.
-    mpirun(3, "resample", "in.las", "-o", "mpi.las", "-n", 130000, "-q", "--force",
+    mpirun(3, "resample", "in.las", "-o", "mpi.las", "-n", n, "-q", "--force",
            "--metrics", "--report", "r.json", *smooth)
-    wpd("resample", "in.las", "-o", "plain.las", "-n", 130000, "-q", "--force", *smooth)
+    wpd("resample", "in.las", "-o", "plain.las", "-n", n, "-q", "--force", *smooth)
     assert filecmp.cmp("plain.las", "mpi.las", shallow=False)
     assert report_writers("r.json") == 1
 
