@@ -190,7 +190,7 @@ int wpd_run_send_tiles(wpd_run *run, const wpd_tiles *outbox, wpd_error *err);
 /* Phases (each in its own file). */
 int wpd_tile_pass(wpd_run *run, wpd_error *err);                 /* tile.c */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err);             /* poisson_pass.c */
-int wpd_take_all_phase(wpd_run *run, wpd_error *err);            /* poisson_pass.c */
+int wpd_take_all_phase(wpd_run *run, wpd_error *err);            /* take_all.c */
 int wpd_exact_phase(wpd_run *run, wpd_error *err);               /* exact_pass.c */
 int wpd_smooth_phase(wpd_run *run, wpd_error *err);              /* smooth_pass.c */
 int wpd_merge_phase(wpd_run *run, wpd_error *err);               /* merge.c */

@@ -452,3 +452,65 @@ void wpd_sharp_verdicts(const wpd_grid *surface, double cap, uint8_t *verdict, i
         free(sc.a);
     }
 }
+
+/* ---- Labels on demand ---------------------------------------------------- */
+
+struct wpd_sharp_labeller {
+    const wpd_grid *g;
+    const double *xyz;
+    double cap;
+    uint8_t *edge;
+    int callers;
+    sharp_scratch *scratch; /* [callers] */
+    uint64_t *count;        /* [callers], labels each computed */
+};
+
+wpd_sharp_labeller *wpd_sharp_labeller_new(const wpd_grid *surface, const double *xyz, double cap,
+                                           uint8_t *edge, int callers)
+{
+    wpd_sharp_labeller *l = calloc(1, sizeof *l);
+    if (!l)
+        return NULL;
+    *l = (wpd_sharp_labeller){surface, xyz, cap, edge, callers > 1 ? callers : 1, NULL, NULL};
+    l->scratch = calloc((size_t)l->callers, sizeof *l->scratch);
+    l->count = calloc((size_t)l->callers, sizeof *l->count);
+    if (!l->scratch || !l->count) {
+        wpd_sharp_labeller_free(l);
+        return NULL;
+    }
+    return l;
+}
+
+int wpd_sharp_label(void *ctx, uint32_t point)
+{
+    wpd_sharp_labeller *l = ctx;
+    int k = l->callers > 1 ? omp_get_thread_num() : 0;
+    sharp_scratch none = {0}, *sc = k < l->callers ? &l->scratch[k] : &none;
+    wpd_crease_verdict why;
+    int edge = label_point(l->g, l->xyz + 3 * (size_t)point, l->cap, sc, &why);
+    if (sc == &none)
+        free(none.a);
+    else
+        l->count[k]++;
+    l->edge[point] = (uint8_t)edge;
+    return edge;
+}
+
+uint64_t wpd_sharp_labeller_count(const wpd_sharp_labeller *l)
+{
+    uint64_t n = 0;
+    for (int k = 0; k < l->callers; k++)
+        n += l->count[k];
+    return n;
+}
+
+void wpd_sharp_labeller_free(wpd_sharp_labeller *l)
+{
+    if (!l)
+        return;
+    for (int k = 0; l->scratch && k < l->callers; k++)
+        free(l->scratch[k].a);
+    free(l->scratch);
+    free(l->count);
+    free(l);
+}
