@@ -358,11 +358,12 @@ static double kth_d2(cand *a, size_t n)
  * spacing from the WPD_SHARP_SPACING_K-th neighbour closer than cap.
  * Returns how many (0 when fewer than WPD_SHARP_SPACING_K + 1 lie within
  * cap). The spacing is read from one collection of radius at least
- * `first` (about a grid cell) when that holds enough points, else from the
- * growing boxes of capped_knn (rare). The collection's radius is the last
- * point's reach when larger: most often it holds this one's reach too, and
- * one collection is all (a second when it does not and holds fewer than
- * WPD_KNN_MAX points; when it holds more, the nearest lie within it). */
+ * `first` (about a grid cell) when that holds enough points (the nearest
+ * then lie within it), else from the growing boxes of capped_knn (rare).
+ * The collection's radius is the last point's reach when larger: most
+ * often it holds this one's reach too, and one collection is all (a second
+ * when it does not and holds fewer than WPD_KNN_MAX points; when it holds
+ * more, the nearest lie within it). */
 static int neighbourhood(const wpd_grid *g, const double q[3], double cap, sharp_scratch *sc,
                          double *pts, double *spacing)
 {
@@ -370,12 +371,8 @@ static int neighbourhood(const wpd_grid *g, const double q[3], double cap, sharp
     double rho = fmin(cap, fmax(first, sc->hint));
     if (collect(g, q, rho, sc))
         return heap_neighbourhood(g, q, cap, pts, spacing);
-    double f2 = first * first;
-    size_t within_first = 0;
-    for (size_t i = 0; i < sc->n; i++)
-        within_first += sc->a[i].d2 < f2;
-    if (within_first > WPD_SHARP_SPACING_K) {
-        spacing_of(kth_d2(sc->a, sc->n), spacing); /* the 13 nearest lie within first */
+    if (sc->n > WPD_SHARP_SPACING_K) {
+        spacing_of(kth_d2(sc->a, sc->n), spacing); /* the 13 nearest lie within rho */
     } else {
         capped_best h;
         if (capped_knn(g, q, WPD_SHARP_SPACING_K + 1, cap, &h) <= WPD_SHARP_SPACING_K)
