@@ -148,13 +148,14 @@ typedef struct cursors {
 
 /* Sharp labels of the points of d as the Poisson pass asks for them: *edge
  * all WPD_LABEL_UNKNOWN, and a labeller over a grid of d's points (built in
- * *surface unless it holds one already: the one tile in memory shares the
- * run's surface grid, which the Poisson pass and smoothing use too). The
- * labels are those of label_sharp; the pass asks for about a fifth of them
- * (docs/algorithm.md section 5, Cost). */
+ * *surface on `threads` unless it holds one already: the one tile in memory
+ * shares the run's surface grid, which the Poisson pass and smoothing use
+ * too), asked from `callers` threads at once (the pass's). The labels are
+ * those of every point's (take_all.c); the pass asks for about a fifth of
+ * them (docs/algorithm.md section 5, Cost). */
 static int labels_on_demand(const wpd_run *run, const wpd_tile_data *d, wpd_grid *surface,
-                            int threads, uint8_t **edge, wpd_sharp_labeller **labeller,
-                            wpd_error *err)
+                            int threads, int callers, uint8_t **edge,
+                            wpd_sharp_labeller **labeller, wpd_error *err)
 {
     *edge = malloc(d->n ? d->n : 1);
     if (!*edge)
@@ -164,7 +165,7 @@ static int labels_on_demand(const wpd_run *run, const wpd_tile_data *d, wpd_grid
                                           run->surface_dk, threads, err))
         return -1;
     *labeller = wpd_sharp_labeller_new(surface, d->xyz, run->res->radius_estimate, *edge,
-                                       threads);
+                                       callers);
     return *labeller ? 0 : wpd_fail(err, WPD_E_MEMORY, "out of memory for the labeller");
 }
 
@@ -238,9 +239,9 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     v->wanted = malloc(m);
     if (!v->cls || !v->blind || !v->wanted)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    /* The three-valued pass runs on one thread (wpd_poisson_pass_certain) */
+    /* The three-valued pass asks from one thread */
     if (run->p->sharp &&
-        labels_on_demand(run, &v->d, &v->label_grid, threads, &v->edge, &v->labeller, err))
+        labels_on_demand(run, &v->d, &v->label_grid, threads, 1, &v->edge, &v->labeller, err))
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
     /* r-balls past the halo, and sharp labels (computed within r0) */
@@ -604,8 +605,9 @@ static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
         wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu points", d.n);
         goto done;
     }
-    if (p->sharp && !pc->memo_edge && labels_on_demand(run, &d, &run->surface, run->threads,
-                                                       &pc->memo_edge, &pc->memo_labeller, err))
+    if (p->sharp && !pc->memo_edge &&
+        labels_on_demand(run, &d, &run->surface, run->threads, run->threads, &pc->memo_edge,
+                         &pc->memo_labeller, err))
         goto done;
     if (!pc->memo) {
         /* The surface grid, when the run built one over these points. */
