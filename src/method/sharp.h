@@ -45,7 +45,7 @@
 void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, double cap,
                              uint8_t *edge, int threads);
 
-/* Labels on demand, for the Poisson pass (wpd/poisson.h, wpd_labeller):
+/* Labels on demand, for the Poisson pass (method/poisson.h, wpd_labeller):
  * the label of source point i of the grid (coordinates xyz[3 i ..], the
  * array the grid was built from), the one wpd_detect_sharp_capped gives,
  * computed when asked and kept in edge[i]. `callers`: how many threads may

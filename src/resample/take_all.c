@@ -13,7 +13,7 @@
 /* Sharp labels of the points of d, from the input within r0 of each (the
  * capped detector): exact for own points and halo points closer than
  * H - r0 to the box, the ones that are not blind. Every label, for the
- * take-everything run (the Poisson passes ask for theirs: poisson_pass.c). */
+ * take-everything run (the Poisson passes ask for theirs: poisson.c). */
 static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, uint8_t **edge,
                        wpd_error *err)
 {
