@@ -154,14 +154,13 @@ static int within(const wpd_grid *g, const double q[3], int k, double radius, ca
     return h->cnt;
 }
 
-/* The spacing from the WPD_SHARP_SPACING_K-th neighbour closer than cap:
- * returns 0 when fewer lie within cap. */
-static int spacing_of(double d2k, double *spacing)
+/* The spacing from the squared distance d2k of the WPD_SHARP_SPACING_K-th
+ * neighbour. */
+static void spacing_of(double d2k, double *spacing)
 {
     /* k points within d_k of a point of a surface: a disc of k / (pi d_k^2)
      * points per unit area; the spacing is one over its square root. */
     *spacing = sqrt(d2k * M_PI / WPD_SHARP_SPACING_K);
-    return 1;
 }
 
 /* The neighbourhood (below) with no memory but the heap's: for when the

@@ -97,7 +97,9 @@ typedef struct wpd_resample_result {
                                  Poisson passes ask only for the labels they need
                                  (every one when n >= the input) */
     uint64_t sharp_labelled;  /* labels computed (through tiles, a halo point's or a
-                                 point of a tile run again count each time) */
+                                 point of a tile run again count each time). This and
+                                 sharp_points depend on the threads and the tiling
+                                 (which labels the passes ask for); the samples do not */
     int in_memory;            /* 1: one tile held in memory, no spill */
     int tiles, colours;
     uint64_t largest_tile;

@@ -58,7 +58,7 @@ static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error 
     run->res->sharp_points += sharp;
     if (edge) {
 #pragma omp atomic
-        run->res->sharp_labelled += s->n;
+        run->res->sharp_labelled += d.n;
     }
     free(edge);
     wpd_tiles_release(&run->tiles, &d);
