@@ -354,9 +354,11 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
                o->params.iterations, o->params.even_iterations, r->open_cells,
                r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
     if (o->params.sharp)
-        printf("  sharp features: %llu input points labelled, %llu output points%s\n",
+        printf("  sharp features: %llu input points labelled, %llu output points%s; labels "
+               "computed %llu (only where the Poisson pass needs them)\n",
                (unsigned long long)r->sharp_points, (unsigned long long)r->sharp_samples,
-               o->edge_label ? " (field " WPD_EDGE_FIELD ")" : "");
+               o->edge_label ? " (field " WPD_EDGE_FIELD ")" : "",
+               (unsigned long long)r->sharp_labelled);
     if (r->in_memory)
         printf("  in memory: one tile, no spill\n");
     else

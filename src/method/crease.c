@@ -93,55 +93,77 @@ static double plane_dist(const face *f, const double *q)
     return fabs(dot(d, f->n));
 }
 
+/* One start of the two-face split, as it ended. The three-face test splits
+ * the same points again with no hopeless test: it takes over the starts
+ * that did not stop at that test (the same work would give the same
+ * result) and resumes those that did. */
+typedef struct split_try {
+    int rc;      /* split_along's result */
+    int gave_up; /* stopped at the hopeless test, after the first fit */
+    signed char side[MAX_POINTS];
+    face f[2];
+} split_try;
+
 /* Splits the points between two faces: first by the side of a principal
  * axis through the centroid, then each point to the nearer plane until no
  * point moves. Returns 0, or -1 when a face runs out of points or when
  * the first split leaves both faces rougher than `hopeless` (a mean
  * squared distance to their planes: a rough surface, not two planes; the
- * moves only refine a split that is nearly right). */
+ * moves only refine a split that is nearly right). A try that gave up so
+ * is resumed after its first fit. */
 static int split_along(const double *q, int m, const double c[3], const double axis[3],
-                       double hopeless, signed char *side, face f[2])
+                       double hopeless, split_try *t)
 {
-    for (int i = 0; i < m; i++) {
+    int resume = t->gave_up;
+    t->gave_up = 0;
+    for (int i = 0; !resume && i < m; i++) {
         double d[3] = {q[3 * i] - c[0], q[3 * i + 1] - c[1], q[3 * i + 2] - c[2]};
-        side[i] = dot(d, axis) > 0;
+        t->side[i] = dot(d, axis) > 0;
     }
     for (int round = 0; round <= MAX_ROUNDS; round++) {
-        fit_faces(q, m, side, f);
-        if (f[0].count < 3 || f[1].count < 3)
-            return -1;
-        if (round == 0 && f[0].ev[0] > hopeless && f[1].ev[0] > hopeless)
-            return -1;
+        if (!resume || round > 0) {
+            fit_faces(q, m, t->side, t->f);
+            if (t->f[0].count < 3 || t->f[1].count < 3)
+                return t->rc = -1;
+            if (round == 0 && t->f[0].ev[0] > hopeless && t->f[1].ev[0] > hopeless) {
+                t->gave_up = 1;
+                return t->rc = -1;
+            }
+        }
         int moved = 0;
         for (int i = 0; round < MAX_ROUNDS && i < m; i++) {
-            signed char s = plane_dist(&f[1], q + 3 * i) < plane_dist(&f[0], q + 3 * i);
-            moved += s != side[i];
-            side[i] = s;
+            signed char s = plane_dist(&t->f[1], q + 3 * i) < plane_dist(&t->f[0], q + 3 * i);
+            moved += s != t->side[i];
+            t->side[i] = s;
         }
         if (!moved)
-            return 0;
+            return t->rc = 0;
     }
-    return 0;
+    return t->rc = 0;
 }
 
 /* The better of the splits that start across the middle and across the
  * largest principal axis (the smaller summed squared distance to the
- * planes). On a crease seen in a ball the middle axis runs across it; on
- * a patch longer than wide, the largest does. */
+ * planes): 0 or 1, the try that holds it, or -1 when neither succeeded.
+ * On a crease seen in a ball the middle axis runs across it; on a patch
+ * longer than wide, the largest does. With `again`, t holds tries of the
+ * same points already (split with a hopeless test): those are taken over
+ * or resumed (split_try). */
 static int split(const double *q, int m, const double c[3], double ax[3][3], double hopeless,
-                 signed char *side, face f[2])
+                 split_try t[2], int again)
 {
-    signed char other[MAX_POINTS];
-    face g[2];
-    int a = split_along(q, m, c, ax[1], hopeless, side, f);
-    int b = split_along(q, m, c, ax[2], hopeless, other, g);
-    if (b == 0 && (a != 0 || g[0].ev[0] * g[0].count + g[1].ev[0] * g[1].count <
-                                 f[0].ev[0] * f[0].count + f[1].ev[0] * f[1].count)) {
-        memcpy(side, other, (size_t)m);
-        memcpy(f, g, 2 * sizeof *f);
-        return 0;
+    for (int k = 0; k < 2; k++) {
+        if (!again)
+            t[k].gave_up = 0;
+        if (!again || t[k].gave_up)
+            split_along(q, m, c, ax[k + 1], hopeless, &t[k]);
     }
-    return a;
+    int a = t[0].rc, b = t[1].rc;
+    const face *f = t[0].f, *g = t[1].f;
+    if (b == 0 && (a != 0 || g[0].ev[0] * g[0].count + g[1].ev[0] * g[1].count <
+                                 f[0].ev[0] * f[0].count + f[1].ev[0] * f[1].count))
+        return 1;
+    return a == 0 ? 0 : -1;
 }
 
 /* Whether every face is planar: RMS within tol, at most a tenth of its
@@ -332,14 +354,18 @@ static int refine3(const double *q, int m, signed char *side, face f[3])
 }
 
 /* A three-face split: the two-face split (without its hopeless test: a
- * corner's halves are not planes), then the rougher face split in two the
- * same way, then the three planes refined. Returns 0 or -1. */
-static int split3(const double *q, int m, const double c[3], double ax[3][3], signed char *side,
-                  face f[3])
+ * corner's halves are not planes; `tries`: that split's tries with the
+ * test, or NULL), then the rougher face split in two the same way, then
+ * the three planes refined. Returns 0 or -1. */
+static int split3(const double *q, int m, const double c[3], double ax[3][3], split_try *tries,
+                  signed char *side, face f[3])
 {
-    face g[2];
-    if (split(q, m, c, ax, INFINITY, side, g))
+    split_try own[2], *t = tries ? tries : own;
+    int k = split(q, m, c, ax, INFINITY, t, tries != NULL);
+    if (k < 0)
         return -1;
+    const face *g = t[k].f;
+    memcpy(side, t[k].side, (size_t)m);
     int r = g[1].ev[0] * g[1].count > g[0].ev[0] * g[0].count;
     double sub[3 * MAX_POINTS];
     int idx[MAX_POINTS], n = 0;
@@ -353,12 +379,12 @@ static int split3(const double *q, int m, const double c[3], double ax[3][3], si
     double sc[3], a[6], ev[3], sax[3][3];
     covariance(&mo, sc, a);
     wpd_sym3_eigen(a, ev, sax);
-    signed char subside[MAX_POINTS];
-    face h[2];
-    if (n < 6 || split(sub, n, sc, sax, INFINITY, subside, h))
+    split_try subt[2];
+    int h = n < 6 ? -1 : split(sub, n, sc, sax, INFINITY, subt, 0);
+    if (h < 0)
         return -1;
     for (int j = 0; j < n; j++)
-        side[idx[j]] = subside[j] ? 2 : (signed char)r;
+        side[idx[j]] = subt[h].side[j] ? 2 : (signed char)r;
     return refine3(q, m, side, f);
 }
 
@@ -397,11 +423,11 @@ static wpd_crease_verdict pair_of(const double *q, int m, const signed char *sid
  * the point on the crease of any two of them; else rough. The nearest
  * verdict to "on" of the three pairs is kept (the enum's order). */
 static wpd_crease_verdict three_faces(const double *q, int m, const double c[3], double ax[3][3],
-                                      double tol, double spacing)
+                                      split_try *tries, double tol, double spacing)
 {
     signed char side[MAX_POINTS];
     face f[3];
-    if (split3(q, m, c, ax, side, f) || !planar3(q, m, side, f, tol))
+    if (split3(q, m, c, ax, tries, side, f) || !planar3(q, m, side, f, tol))
         return WPD_CREASE_ROUGH;
     wpd_crease_verdict best = WPD_CREASE_VERDICTS;
     for (int a = 0; a < 3 && best != WPD_CREASE_ON; a++)
@@ -436,14 +462,16 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
     if (ev[0] > WPD_CREASE_MAX_VARIATION3 * total)
         return WPD_CREASE_ROUGH;
     if (ev[0] > WPD_CREASE_MAX_VARIATION * total)
-        return three_faces(q, m, c, ax, tol, spacing);
-    signed char side[MAX_POINTS];
-    face f[2];
-    if (split(q, m, c, ax, HOPELESS * tol * tol, side, f))
-        return three_faces(q, m, c, ax, tol, spacing);
+        return three_faces(q, m, c, ax, NULL, tol, spacing);
+    split_try tries[2];
+    int k = split(q, m, c, ax, HOPELESS * tol * tol, tries, 0);
+    if (k < 0)
+        return three_faces(q, m, c, ax, tries, tol, spacing);
+    const signed char *side = tries[k].side;
+    const face *f = tries[k].f;
     if (f[0].count < WPD_CREASE_MIN_FACE || f[1].count < WPD_CREASE_MIN_FACE)
         return WPD_CREASE_SMALL_FACE;
     if (!planar(q, m, side, f, tol))
-        return three_faces(q, m, c, ax, tol, spacing);
+        return three_faces(q, m, c, ax, tries, tol, spacing);
     return two_faces(q, m, side, f, tol, spacing);
 }

@@ -10,116 +10,56 @@
 #include "common/hugepage.h"
 #include "core/hash.h"
 #include "core/sort.h"
-
-
-/* The greedy pass is exact but visits points in bands of priority rather
- * than one by one in priority order: bands are taken in order, the points
- * of one band in slot (cell) order, so that consecutive neighbourhood scans
- * touch nearby memory. A point is accepted only once every undecided point
- * of smaller priority within its conflict distance has been decided first
- * (resolved recursively, through an explicit stack); points of earlier
- * bands are all decided already. The result is the same as visiting every
- * point in priority order. */
-#define BAND_BITS 5
-#define NBANDS (1u << BAND_BITS)
-
-/* Per-slot state byte: band << 2 | status, so "undecided and in band b" is
- * one byte comparison (points of smaller priority that are still undecided
- * can only be in the current band). */
-enum { UNDECIDED = 0, REMOVED = 1, ACCEPTED = 2, UNKNOWN = 3, STATUS_MASK = 3 };
-
-/* The two-valued pass on several threads (greedy_parallel below) marks the
- * slots it leaves to the sequential pass DEFERRED, the UNKNOWN status (the
- * two-valued pass has no other use for it); try_accept answers DEFER_ME
- * when its slot waits for one of them. */
-enum { DEFERRED = UNKNOWN };
-#define DEFER_ME (UINT32_MAX - 2)
-
-typedef struct pass_state {
-    const wpd_grid *g;
-    const uint8_t *half;  /* per slot: sharp-feature point, or NULL */
-    const uint64_t *prio; /* per slot */
-    uint8_t *state;       /* per slot */
-    double r;
-    uint32_t *stack;
-    size_t stack_cap;
-    uint32_t *hits;       /* slots collected by try_accept */
-    size_t hit_cap;
-    int any_half;         /* three-valued pass: some slot has a sharp label (else
-                             every dependency distance is the full one) */
-} pass_state;
-
-/* Conflict threshold (squared) between a point of radius rp and slot s;
- * full2 is the threshold against a point of radius r, the only one when no
- * point is a sharp-feature point (computed once per scan). */
-static inline double conflict2(const pass_state *ps, double rp, uint32_t s, double full2)
-{
-    if (!ps->half || !(ps->half[s] & 3)) /* KIND_RADIUS, or a 0/1 sharp flag */
-        return full2;
-    double d = 0.5 * (rp + 0.5 * ps->r);
-    return d * d;
-}
-
-static inline double full_conflict2(const pass_state *ps, double rp)
-{
-    double d = 0.5 * (rp + ps->r);
-    return d * d;
-}
-
-static inline double dist2(const double *a, const double *b)
-{
-    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return dx * dx + dy * dy + dz * dz;
-}
+#include "method/poisson_state.h"
 
 /* Marks REMOVED every undecided slot in conflict with a point at p of
- * radius rp. */
-static void remove_around(const pass_state *ps, const double p[3], double rp)
+ * radius rp (a fixed point), TENTATIVE where that depends on a label not
+ * known yet. */
+static void remove_around(pass_state *ps, const double p[3], double rp)
 {
     const wpd_grid *g = ps->g;
     int64_t lo[3], hi[3];
     if (!wpd_grid_box(g, p, 0.5 * (rp + ps->r), lo, hi))
         return;
-    double full2 = full_conflict2(ps, rp);
+    double full2 = full_conflict2(ps, rp), hd = 0.5 * (rp + 0.5 * ps->r), half2 = hd * hd;
     for (int64_t b = lo[1]; b <= hi[1]; b++)
         for (int64_t a = lo[0]; a <= hi[0]; a++) {
             uint32_t sb, se;
             wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
-            for (uint32_t s = sb; s < se; s++)
-                if ((ps->state[s] & STATUS_MASK) == UNDECIDED &&
-                    dist2(g->xyz + 3 * (size_t)s, p) < conflict2(ps, rp, s, full2))
-                    ps->state[s] |= REMOVED;
+            for (uint32_t s = sb; s < se; s++) {
+                if ((ps->state[s] & STATUS_MASK) != UNDECIDED)
+                    continue;
+                double d2 = dist2(g->xyz + 3 * (size_t)s, p);
+                if (d2 >= full2)
+                    continue;
+                /* Beyond half2 only a point of radius r is in conflict (a
+                 * blind slot's smallest radius is r/2: KIND_BLIND is 2). */
+                uint8_t k = ps->half && d2 >= half2 ? ps->half[s] : 0;
+                if (k & LABEL_UNSURE)
+                    ps->state[s] |= TENTATIVE;
+                else if (!(k & 3))
+                    set_removed(&ps->state[s]);
+            }
         }
-}
-
-/* Doubles a scratch array; returns 0, or -1 (the array unchanged) if out of
- * memory. */
-static int grow(uint32_t **buf, size_t *cap)
-{
-    uint32_t *grown = realloc(*buf, 2 * *cap * sizeof *grown);
-    if (!grown)
-        return -1;
-    *buf = grown;
-    *cap *= 2;
-    return 0;
 }
 
 /* Tries to accept slot t: one scan of its neighbourhood collects the
  * undecided slots in conflict with it (DEFERRED ones count as undecided);
  * if one of them has a smaller priority (it can only be in t's band), that
  * one must be decided first and is returned - DEFER_ME if it is DEFERRED -
- * and nothing changes. Otherwise t is accepted, the collected slots are
- * removed, and UINT32_MAX is returned. Returns UINT32_MAX - 1 if the
+ * and nothing changes but labels asked. Otherwise t is accepted, the
+ * collected slots are removed (TENTATIVE where that depends on a label not
+ * known yet), and UINT32_MAX is returned. Returns UINT32_MAX - 1 if a
  * collection buffer cannot grow. */
 static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
 {
     const wpd_grid *g = ps->g;
     const double *p = g->xyz + 3 * (size_t)t;
     uint64_t pt = ps->prio[t];
-    uint8_t band = ps->state[t] >> 2;
-    size_t found = 0;
+    uint8_t band = BAND_OF(ps->state[t]);
+    size_t found = 0, maybes = 0;
     int64_t lo[3], hi[3];
-    double full2 = full_conflict2(ps, rt);
+    double full2 = full_conflict2(ps, rt), hd = 0.5 * (rt + 0.5 * ps->r), half2 = hd * hd;
     if (wpd_grid_box(g, p, 0.5 * (rt + ps->r), lo, hi))
         for (int64_t b = lo[1]; b <= hi[1]; b++)
             for (int64_t a = lo[0]; a <= hi[0]; a++) {
@@ -127,23 +67,31 @@ static uint32_t try_accept(pass_state *ps, uint32_t t, double rt)
                 wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
                 for (uint32_t s = sb; s < se; s++) {
                     uint8_t st = ps->state[s], status = st & STATUS_MASK;
-                    if ((status != UNDECIDED && status != DEFERRED) || s == t ||
-                        dist2(g->xyz + 3 * (size_t)s, p) >= conflict2(ps, rt, s, full2))
+                    if ((status != UNDECIDED && status != DEFERRED) || s == t)
                         continue;
-                    if (st >> 2 == band && ps->prio[s] < pt)
-                        return status == DEFERRED ? DEFER_ME : s;
-                    if (found == ps->hit_cap && grow(&ps->hits, &ps->hit_cap) < 0)
+                    double d2 = dist2(g->xyz + 3 * (size_t)s, p);
+                    if (d2 >= full2)
+                        continue;
+                    int where = d2 >= half2 && ps->half ? beyond_half(ps, s, st, 0) : IN;
+                    if (where == SKIP)
+                        continue;
+                    if (BAND_OF(st) == band && ps->prio[s] < pt) {
+                        if (!blocks(ps, s, where == MAYBE, st))
+                            continue;
+                        return (ps->state[s] & STATUS_MASK) == DEFERRED ? DEFER_ME : s;
+                    }
+                    if (where == MAYBE ? collect_slot(&ps->maybe, &ps->maybe_cap, &maybes, s)
+                                       : collect_slot(&ps->hits, &ps->hit_cap, &found, s))
                         return UINT32_MAX - 1;
-                    ps->hits[found++] = s;
                 }
             }
     ps->state[t] |= ACCEPTED;
     for (size_t i = 0; i < found; i++)
-        ps->state[ps->hits[i]] = (uint8_t)((ps->state[ps->hits[i]] & ~STATUS_MASK) | REMOVED);
+        set_removed(&ps->state[ps->hits[i]]);
+    for (size_t i = 0; i < maybes; i++)
+        ps->state[ps->maybe[i]] |= TENTATIVE;
     return UINT32_MAX;
 }
-
-static uint32_t try_decide(pass_state *ps, uint32_t t);
 
 /* Decides slot s and whatever it depends on, with the two-valued
  * (try_accept) or the three-valued rules (try_decide). Returns 0, or -1 if
@@ -154,12 +102,15 @@ static int resolve(pass_state *ps, uint32_t s, int certain)
     ps->stack[top++] = s;
     while (top > 0) {
         uint32_t t = ps->stack[top - 1];
+        if (ps->half)
+            settle_tentative(ps, t);
         if ((ps->state[t] & STATUS_MASK) != UNDECIDED) {
             top--;
             continue;
         }
-        double rt = !certain && ps->half && ps->half[t] ? 0.5 * ps->r : ps->r;
-        uint32_t blocker = certain ? try_decide(ps, t) : try_accept(ps, t, rt);
+        uint32_t blocker = certain ? wpd_poisson_try_decide(ps, t)
+                                   : try_accept(ps, t, ps->half && label_of(ps, t) ? 0.5 * ps->r
+                                                                                  : ps->r);
         if (blocker == UINT32_MAX) {
             top--;
             continue;
@@ -171,129 +122,6 @@ static int resolve(pass_state *ps, uint32_t s, int certain)
         ps->stack[top++] = blocker;
     }
     return 0;
-}
-
-/* ---- Three-valued pass ("certain or unknown") ----------------------------
- *
- * Why the decisions are certain. Let REF be the one-block pass over the
- * whole cloud with the true labels; its kept set K is independent (a kept
- * point removes every later point within conflict distance) and a point is
- * in K iff no point of K of smaller priority lies within conflict distance.
- * Assume (a)-(c) of poisson.h and take the candidates in priority order;
- * suppose every candidate of smaller priority than c that is KEPT is in K
- * and every one that is REMOVED is not (nothing to assume for the first).
- * Write R(x) for the largest radius x may have (r if blind, else its label)
- * and m(x) for the smallest (r/2 if blind, else its label); the true radius
- * lies in [m(x), R(x)], and every conflict distance is at most r.
- *  - c REMOVED by a fixed point f: f is in K (a) and |c f| < (r_f + m(c))/2
- *    <= the true conflict distance, so c is not in K (K is independent).
- *  - c REMOVED by a KEPT candidate k of smaller priority: k is in K (by
- *    induction) and not blind, so its label is true (c), and |c k| <
- *    (r_k + m(c))/2 <= the true distance: c is not in K.
- *  - c KEPT: c is not blind, so its label is true (c). If c were not in K,
- *    some p in K of smaller priority would lie within the true conflict
- *    distance (<= r) of c, hence (b) be a fixed point or a candidate. A
- *    fixed p would have removed c (its true label, (a)). A candidate p is
- *    not REMOVED (induction, p in K); KEPT, it is not blind and would have
- *    removed c; UNKNOWN, or blind and undecided, its radius is counted at
- *    R(p) >= its true one, so it would have made c UNKNOWN. Each case
- *    contradicts c KEPT: c is in K.
- * UNKNOWN claims nothing. The induction uses only candidates of smaller
- * priority, so it holds whatever the block's points of larger priority.
- *
- * In the pass, KEPT is pushed forward as in the two-valued one: a slot
- * decided KEPT removes the undecided slots around it. UNKNOWN is pulled:
- * when slot t is decided, its scan over the dependency distance
- * (R(s) + R(t)) / 2 sees every slot of smaller priority that could remove
- * or taint it, and each is decided by then (an undecided one of t's band,
- * or a lazy one, is decided first) but for blind slots. A blind slot is
- * never scanned: it is never KEPT, so it removes nothing, and whether a
- * KEPT slot would have removed it is not worth its scan; one of smaller
- * priority that is not REMOVED taints t as an UNKNOWN one does. That is
- * conservative (t may be UNKNOWN where the rules above would decide it)
- * and UNKNOWN claims nothing. (Pushing the taint from each UNKNOWN slot,
- * and deciding blind slots with their own scans, measured 30 % more slots
- * scanned on 10 M points in 16 tiles.)
- *
- * Per-slot kind, in place of the sharp flag: */
-enum { KIND_HALF = 1, KIND_BLIND = 2, KIND_LAZY = 4, KIND_RADIUS = KIND_HALF | KIND_BLIND };
-/* A slot's kind & KIND_RADIUS is nonzero exactly when its smallest radius m
- * is r/2, so remove_around (the fixed points) reads it as the "half" flag;
- * its largest radius R is r/2 only for kind & KIND_RADIUS == KIND_HALF.
- * KIND_LAZY: decided only on demand (not wanted by the caller; blind slots
- * are lazy too, and never decided). A lazy slot of smaller priority that a
- * slot depends on is decided first, whatever its band; one nobody depends
- * on stays undecided and is reported UNKNOWN. In a tile this spares a
- * neighbourhood scan for most halo points. */
-
-/* As try_accept, for the three-valued pass (ps->half is the kind array; t
- * is not blind): returns an undecided slot of smaller priority that t
- * depends on, or decides t - UNKNOWN if an UNKNOWN or undecided blind slot
- * of smaller priority lies within the dependency distance, else KEPT
- * (removing the undecided slots of larger priority in conflict with it) -
- * and returns UINT32_MAX. UINT32_MAX - 1: out of memory. */
-static uint32_t try_decide(pass_state *ps, uint32_t t)
-{
-    const wpd_grid *g = ps->g;
-    const uint8_t *kind = ps->half;
-    const double *p = g->xyz + 3 * (size_t)t;
-    uint64_t pt = ps->prio[t];
-    uint8_t waiting = ps->state[t]; /* undecided, t's band */
-    double half_r = 0.5 * ps->r;
-    double rt = (kind[t] & KIND_RADIUS) == KIND_HALF ? half_r : ps->r; /* R(t) */
-    double dep_full = 0.5 * (rt + ps->r), dep_half = 0.5 * (rt + half_r);
-    double dep_full2 = dep_full * dep_full, dep_half2 = dep_half * dep_half;
-    size_t found = 0;
-    int tainted = 0;
-    int64_t lo[3], hi[3];
-    if (wpd_grid_box(g, p, dep_full, lo, hi))
-        for (int64_t b = lo[1]; b <= hi[1]; b++)
-            for (int64_t a = lo[0]; a <= hi[0]; a++) {
-                uint32_t sb, se;
-                wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
-                for (uint32_t s = sb; s < se; s++) {
-                    uint8_t st = ps->state[s], status = st & STATUS_MASK;
-                    if (status == REMOVED || status == ACCEPTED || s == t ||
-                        dist2(g->xyz + 3 * (size_t)s, p) >=
-                            (ps->any_half && (kind[s] & KIND_RADIUS) == KIND_HALF ? dep_half2
-                                                                                  : dep_full2))
-                        continue;
-                    /* An undecided slot of another band that is not lazy
-                     * comes later: bands run in priority order. */
-                    uint8_t ks = kind[s];
-                    if (status == UNKNOWN || (ks & KIND_BLIND)) {
-                        int earlier = ps->prio[s] < pt;
-                        tainted |= earlier;
-                        if (status == UNKNOWN || earlier)
-                            continue;
-                    } else if ((st == waiting || (ks & KIND_LAZY)) && ps->prio[s] < pt) {
-                        /* Undecided slots of earlier bands are lazy ones
-                         * left for decision on demand: they block too.
-                         * (Collecting every blocker of a scan at once, even
-                         * pushed smallest priority first, measured 6-19 %
-                         * more work than returning at the first.) */
-                        return s;
-                    }
-                    if (found == ps->hit_cap && grow(&ps->hits, &ps->hit_cap) < 0)
-                        return UINT32_MAX - 1;
-                    ps->hits[found++] = s;
-                }
-            }
-    if (tainted) {
-        ps->state[t] |= UNKNOWN;
-        return UINT32_MAX;
-    }
-    /* t is not blind: rt is its label. A non-blind hit lies within the
-     * exact conflict distance; a blind one is removed only within
-     * (rt + r/2) / 2, whatever its label turns out to be. */
-    ps->state[t] |= ACCEPTED;
-    double rm = 0.5 * (rt + half_r), rm2 = rm * rm;
-    for (size_t i = 0; i < found; i++) {
-        uint32_t s = ps->hits[i];
-        if (!(kind[s] & KIND_BLIND) || dist2(g->xyz + 3 * (size_t)s, p) < rm2)
-            ps->state[s] |= REMOVED;
-    }
-    return UINT32_MAX;
 }
 
 static int cmp_u32(const void *a, const void *b)
@@ -322,6 +150,11 @@ struct wpd_poisson {
     size_t stack_cap;
     uint32_t *hits;
     size_t hit_cap;
+    uint32_t *maybe;
+    size_t maybe_cap;
+    size_t unsure;         /* slots whose label is asked on demand */
+    wpd_labeller label;    /* asked for them, or NULL */
+    void *label_ctx;
 };
 
 /* Builds the grid for cell size r (unless it is borrowed) and everything
@@ -339,18 +172,23 @@ static int prepare_slots(wpd_poisson *ps, double r, wpd_error *err)
     const uint8_t *edge = in->edge, *blind = ps->blind;
     uint64_t *prio = ps->prio;
     uint8_t *band = ps->band, *half = ps->half, *kind = ps->kind;
-#pragma omp parallel for num_threads(ps->threads) schedule(static)
+    size_t unsure = 0;
+#pragma omp parallel for num_threads(ps->threads) schedule(static) reduction(+ : unsure)
     for (size_t s = 0; s < n; s++) {
         uint32_t id = g->id[s];
         prio[s] = wpd_priority(seed, gid[id]);
         band[s] = (uint8_t)((prio[s] >> (64 - BAND_BITS)) << 2);
+        int b = blind && blind[id];
+        uint8_t l = !edge ? 0 : edge[id] == WPD_LABEL_UNKNOWN ? (b ? 0 : LABEL_UNSURE)
+                              : edge[id] != 0 ? LABEL_HALF : 0;
         if (half)
-            half[s] = edge[id] != 0;
+            half[s] = l;
         if (kind)
-            kind[s] = (uint8_t)((edge && edge[id] ? KIND_HALF : 0) |
-                                (blind && blind[id] ? KIND_BLIND | KIND_LAZY : 0) |
+            kind[s] = (uint8_t)(l | (b ? KIND_BLIND | KIND_LAZY : 0) |
                                 (ps->wanted && !ps->wanted[id] ? KIND_LAZY : 0));
+        unsure += l == LABEL_UNSURE;
     }
+    ps->unsure = unsure;
     size_t start[NBANDS + 1] = {0};
     for (size_t s = 0; s < n; s++)
         start[(band[s] >> 2) + 1]++;
@@ -389,11 +227,12 @@ static wpd_poisson *prepare(const wpd_poisson_input *in, const wpd_grid *grid,
     ps->state = wpd_malloc_large(m);
     ps->stack_cap = 1024;
     ps->stack = malloc(ps->stack_cap * sizeof *ps->stack);
-    ps->hit_cap = 1024;
+    ps->hit_cap = ps->maybe_cap = 1024;
     ps->hits = malloc(ps->hit_cap * sizeof *ps->hits);
+    ps->maybe = malloc(ps->maybe_cap * sizeof *ps->maybe);
     if (!ps->prio || !ps->band || (in->edge && !ps->half) || ((blind || wanted) && !ps->kind) ||
         !ps->order || !ps->state ||
-        !ps->stack || !ps->hits)
+        !ps->stack || !ps->hits || !ps->maybe)
         goto oom;
     if (prepare_slots(ps, in->r, err) < 0) {
         wpd_poisson_release(ps);
@@ -427,6 +266,12 @@ wpd_poisson *wpd_poisson_prepare_certain(const wpd_poisson_certain_input *in, wp
     return prepare(&in->base, NULL, in->blind, in->fixed_edge, in->wanted, err);
 }
 
+void wpd_poisson_set_labeller(wpd_poisson *ps, wpd_labeller fn, void *ctx)
+{
+    ps->label = fn;
+    ps->label_ctx = ctx;
+}
+
 void wpd_poisson_release(wpd_poisson *ps)
 {
     if (!ps)
@@ -440,6 +285,7 @@ void wpd_poisson_release(wpd_poisson *ps)
     free(ps->state);
     free(ps->stack);
     free(ps->hits);
+    free(ps->maybe);
     free(ps);
 }
 
@@ -506,6 +352,8 @@ static int resolve_local(territory *tr, uint32_t s)
     ps->stack[top++] = s;
     while (top > 0) {
         uint32_t t = ps->stack[top - 1];
+        if (ps->half)
+            settle_tentative(ps, t);
         uint8_t status = ps->state[t] & STATUS_MASK;
         if (status != UNDECIDED && status != DEFERRED) {
             top--;
@@ -513,7 +361,7 @@ static int resolve_local(territory *tr, uint32_t s)
         }
         uint32_t blocker = status == DEFERRED || leaves(ps, tr, t)
                                ? DEFER_ME
-                               : try_accept(ps, t, ps->half && ps->half[t] ? 0.5 * ps->r : ps->r);
+                               : try_accept(ps, t, ps->half && label_of(ps, t) ? 0.5 * ps->r : ps->r);
         if (blocker == UINT32_MAX) {
             top--;
             continue;
@@ -569,11 +417,12 @@ static int greedy_parallel(wpd_poisson *ps, pass_state *st, int nt)
     int failed = 0;
     for (int k = 0; k < nt; k++) {
         tr[k].st = *st;
-        tr[k].st.stack_cap = tr[k].st.hit_cap = tr[k].deferred_cap = 1024;
+        tr[k].st.stack_cap = tr[k].st.hit_cap = tr[k].st.maybe_cap = tr[k].deferred_cap = 1024;
         tr[k].st.stack = malloc(1024 * sizeof(uint32_t));
         tr[k].st.hits = malloc(1024 * sizeof(uint32_t));
+        tr[k].st.maybe = malloc(1024 * sizeof(uint32_t));
         tr[k].deferred = malloc(1024 * sizeof(uint32_t));
-        failed |= !tr[k].st.stack || !tr[k].st.hits || !tr[k].deferred;
+        failed |= !tr[k].st.stack || !tr[k].st.hits || !tr[k].st.maybe || !tr[k].deferred;
     }
     for (unsigned b = 0; b < NBANDS && !failed; b++) {
         size_t first = ps->band_first[b], last = ps->band_first[b + 1];
@@ -603,6 +452,7 @@ static int greedy_parallel(wpd_poisson *ps, pass_state *st, int nt)
     for (int k = 0; k < nt; k++) {
         free(tr[k].st.stack);
         free(tr[k].st.hits);
+        free(tr[k].st.maybe);
         free(tr[k].deferred);
     }
     return failed ? -1 : 0;
@@ -622,8 +472,11 @@ static long run_pass(wpd_poisson *ps, double r, int certain, uint32_t *out, uint
     if (ps->g == &ps->own && (r > 1.6 * ps->own.cell || r < 0.6 * ps->own.cell))
         if (prepare_slots(ps, r, err) < 0)
             return -1;
-    pass_state st = {ps->g, certain ? ps->kind : ps->half, ps->prio, ps->state, r, ps->stack,
-                     ps->stack_cap, ps->hits, ps->hit_cap, ps->in.edge != NULL};
+    if (ps->unsure && !ps->label)
+        return wpd_fail(err, WPD_E_USAGE, "poisson: labels to compute and no labeller (a bug)");
+    pass_state st = {ps->g,          certain ? ps->kind : ps->half, ps->prio, ps->state, r,
+                     ps->stack,      ps->stack_cap, ps->hits, ps->hit_cap, ps->in.edge != NULL,
+                     ps->maybe,      ps->maybe_cap, ps->label, ps->label_ctx};
     memcpy(ps->state, ps->band, n);
     const uint8_t *fixed_edge = ps->fixed_edge; /* NULL but for prepare_certain */
     for (size_t f = 0; f < ps->in.nfixed; f++)
@@ -646,6 +499,8 @@ static long run_pass(wpd_poisson *ps, double r, int certain, uint32_t *out, uint
     ps->stack_cap = st.stack_cap;
     ps->hits = st.hits;
     ps->hit_cap = st.hit_cap;
+    ps->maybe = st.maybe;
+    ps->maybe_cap = st.maybe_cap;
     if (failed)
         return wpd_fail(err, WPD_E_MEMORY, "poisson: out of memory for the conflict lists");
     size_t kept = 0, unk = 0;

@@ -62,6 +62,23 @@ wpd_poisson *wpd_poisson_prepare_on(const wpd_poisson_input *in, const wpd_grid 
                                     wpd_error *err);
 /* One pass at radius r (> 0), as wpd_poisson_pass. */
 long wpd_poisson_run(wpd_poisson *ps, double r, uint32_t *out, wpd_error *err);
+/* Sharp labels on demand. The edge array (wpd_poisson_input.edge) may hold
+ * WPD_LABEL_UNKNOWN for points whose label the pass asks of a labeller
+ * only where it needs it: for a slot it decides, and for one that lies
+ * between the conflict distances of radius r/2 and r from a kept point (a
+ * point removed if its radius is r, and only asked for when the pass
+ * reaches it, unless a nearer kept point removes it first). On NC Raleigh
+ * to 100 K that is about a fifth of the points (docs/algorithm.md section
+ * 5, Cost); the samples are those of the labels given in full. The
+ * labeller returns point's label (0 or 1) and must be safe to call from
+ * the pass's threads at once for distinct points (it is asked once per
+ * point and pass context, and never for a blind one). */
+#define WPD_LABEL_UNKNOWN 2
+typedef int (*wpd_labeller)(void *ctx, uint32_t point);
+/* Sets the labeller of a context; a pass over UNKNOWN labels without one
+ * fails. */
+void wpd_poisson_set_labeller(wpd_poisson *ps, wpd_labeller fn, void *ctx);
+
 /* Frees a context; NULL is fine. */
 void wpd_poisson_release(wpd_poisson *ps);
 

@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <omp.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/knn.h"
@@ -153,51 +154,256 @@ static int within(const wpd_grid *g, const double q[3], int k, double radius, ca
     return h->cnt;
 }
 
-/* The nearest points (up to WPD_KNN_MAX) closer than both cap and
- * WPD_SHARP_REACH spacings to q, the spacing from the
- * WPD_SHARP_SPACING_K-th neighbour closer than cap. Mostly one box query:
- * the first, of a radius chosen for speed only (about a grid cell), gives
- * the spacing and, when it reaches as far or is full, the answer. Returns
- * the points (0 when fewer than WPD_SHARP_SPACING_K + 1 lie within cap). */
-static int neighbourhood(const wpd_grid *g, const double q[3], double cap, capped_best *h,
-                         double *spacing)
+/* The spacing from the squared distance d2k of the WPD_SHARP_SPACING_K-th
+ * neighbour. */
+static void spacing_of(double d2k, double *spacing)
 {
-    double first = fmin(cap, 1.2 * g->cell);
-    int got = within(g, q, WPD_KNN_MAX, first, h);
-    double d2k;
-    if (got > WPD_SHARP_SPACING_K) {
-        d2k = h->d2[WPD_SHARP_SPACING_K];
-    } else if (capped_knn(g, q, WPD_SHARP_SPACING_K + 1, cap, h) > WPD_SHARP_SPACING_K) {
-        d2k = h->d2[WPD_SHARP_SPACING_K];
-        got = 0; /* h holds the spacing query now */
-    } else {
-        return 0;
-    }
     /* k points within d_k of a point of a surface: a disc of k / (pi d_k^2)
      * points per unit area; the spacing is one over its square root. */
     *spacing = sqrt(d2k * M_PI / WPD_SHARP_SPACING_K);
-    double reach = fmin(WPD_SHARP_REACH * *spacing, cap);
-    if (reach > first && got < WPD_KNN_MAX)
-        return within(g, q, WPD_KNN_MAX, reach, h);
-    int m = 0; /* the first query's points within reach: a prefix */
-    while (m < got && h->d2[m] < reach * reach)
-        m++;
+}
+
+/* The neighbourhood (below) with no memory but the heap's: for when the
+ * collection buffer cannot grow. */
+static int heap_neighbourhood(const wpd_grid *g, const double q[3], double cap, double *pts,
+                              double *spacing)
+{
+    capped_best h;
+    if (capped_knn(g, q, WPD_SHARP_SPACING_K + 1, cap, &h) <= WPD_SHARP_SPACING_K)
+        return 0;
+    spacing_of(h.d2[WPD_SHARP_SPACING_K], spacing);
+    int m = within(g, q, WPD_KNN_MAX, fmin(WPD_SHARP_REACH * *spacing, cap), &h);
+    for (int j = 0; j < m; j++)
+        memcpy(pts + 3 * j, h.p[j], 3 * sizeof(double));
     return m;
 }
 
-/* The label of the point at q: the crease test on its neighbourhood. */
-static int label_point(const wpd_grid *g, const double q[3], double cap, wpd_crease_verdict *why)
+/* ---- Neighbourhoods by collection ---------------------------------------
+ *
+ * The common case: every grid point closer than some radius collected with
+ * its squared distance, then the nearest selected and sorted. Cheaper than
+ * the heap above (an offer there costs log k comparisons of four keys; here
+ * most points cost one distance and one store), and the same answer: the
+ * nearest points in (d2, x, y, z) order are a set and an order that do not
+ * depend on how they were found. */
+
+/* A collected point. */
+typedef struct cand {
+    double d2;
+    const double *p;
+} cand;
+
+/* Per-thread collection buffer (grows; freed by the caller). */
+typedef struct sharp_scratch {
+    cand *a;
+    size_t n, cap;
+    double hint; /* the last reach: the next point's is most often alike */
+} sharp_scratch;
+
+static inline int cand_before(const cand *a, const cand *b)
 {
-    capped_best h;
-    double spacing;
-    int got = neighbourhood(g, q, cap, &h, &spacing);
-    if (!got) {
+    return before(a->d2, a->p, b->d2, b->p);
+}
+
+static inline void cand_swap(cand *a, cand *b)
+{
+    cand t = *a;
+    *a = *b;
+    *b = t;
+}
+
+/* Median of three as pivot, moved to a[0]. */
+static void pivot_first(cand *a, size_t n)
+{
+    cand *m = a + n / 2, *z = a + n - 1;
+    if (cand_before(m, a))
+        cand_swap(m, a);
+    if (cand_before(z, m)) {
+        cand_swap(z, m);
+        if (cand_before(m, a))
+            cand_swap(m, a);
+    }
+    cand_swap(a, m);
+}
+
+/* Partitions a[0..n) around the pivot a[0]; returns its final index (the
+ * order is total, so every entry before it is smaller, after it larger,
+ * but for identical points, which are interchangeable). */
+static size_t partition(cand *a, size_t n)
+{
+    size_t lo = 1, hi = n - 1;
+    for (;;) {
+        while (lo <= hi && cand_before(&a[lo], &a[0]))
+            lo++;
+        while (lo <= hi && cand_before(&a[0], &a[hi]))
+            hi--;
+        if (lo >= hi)
+            break;
+        cand_swap(&a[lo++], &a[hi--]);
+    }
+    cand_swap(&a[0], &a[lo - 1]);
+    return lo - 1;
+}
+
+static void insertion_sort(cand *a, size_t n)
+{
+    for (size_t i = 1; i < n; i++) {
+        cand x = a[i];
+        size_t j = i;
+        while (j > 0 && cand_before(&x, &a[j - 1])) {
+            a[j] = a[j - 1];
+            j--;
+        }
+        a[j] = x;
+    }
+}
+
+/* The k smallest of a[0..n) into a[0..k), unordered (k < n). */
+static void select_smallest(cand *a, size_t n, size_t k)
+{
+    while (n > 16) {
+        pivot_first(a, n);
+        size_t m = partition(a, n);
+        if (m == k || m + 1 == k)
+            return;
+        if (m > k) {
+            n = m;
+        } else {
+            a += m + 1;
+            n -= m + 1;
+            k -= m + 1;
+        }
+    }
+    insertion_sort(a, n);
+}
+
+static void sort_cands(cand *a, size_t n)
+{
+    while (n > 16) {
+        pivot_first(a, n);
+        size_t m = partition(a, n);
+        /* recurse into the smaller side, loop on the larger */
+        if (m < n - m - 1) {
+            sort_cands(a, m);
+            a += m + 1;
+            n -= m + 1;
+        } else {
+            sort_cands(a + m + 1, n - m - 1);
+            n = m;
+        }
+    }
+    insertion_sort(a, n);
+}
+
+/* Collects every grid point closer than rho to q into sc (replacing what
+ * it held). Returns 0, or -1 when the buffer cannot grow. */
+static int collect(const wpd_grid *g, const double q[3], double rho, sharp_scratch *sc)
+{
+    sc->n = 0;
+    int64_t lo[3], hi[3];
+    if (!wpd_grid_box(g, q, rho, lo, hi))
+        return 0;
+    double rho2 = rho * rho;
+    for (int64_t b = lo[1]; b <= hi[1]; b++)
+        for (int64_t a = lo[0]; a <= hi[0]; a++) {
+            uint32_t sb, se;
+            wpd_grid_column_slots(g, a, b, lo[2], hi[2], &sb, &se);
+            if (sc->n + (se - sb) > sc->cap) {
+                size_t cap = 2 * (sc->n + (se - sb)) + 256;
+                cand *grown = realloc(sc->a, cap * sizeof *grown);
+                if (!grown)
+                    return -1;
+                sc->a = grown;
+                sc->cap = cap;
+            }
+            cand *out = sc->a + sc->n;
+            const double *p = g->xyz + 3 * (size_t)sb;
+            for (uint32_t s = sb; s < se; s++, p += 3) {
+                double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+                double d2 = dx * dx + dy * dy + dz * dz;
+                out->d2 = d2;
+                out->p = p;
+                out += d2 < rho2;
+            }
+            sc->n = (size_t)(out - sc->a);
+        }
+    return 0;
+}
+
+/* Keeps the collected points closer than radius. */
+static void keep_within(sharp_scratch *sc, double radius)
+{
+    double r2 = radius * radius;
+    size_t m = 0;
+    for (size_t i = 0; i < sc->n; i++)
+        if (sc->a[i].d2 < r2)
+            sc->a[m++] = sc->a[i];
+    sc->n = m;
+}
+
+/* The 13th smallest squared distance of the n >= 13 collected (which of
+ * equal ones does not matter: only the value is used). */
+static double kth_d2(cand *a, size_t n)
+{
+    select_smallest(a, n, WPD_SHARP_SPACING_K + 1);
+    double d2 = a[0].d2;
+    for (int i = 1; i <= WPD_SHARP_SPACING_K; i++)
+        d2 = fmax(d2, a[i].d2);
+    return d2;
+}
+
+/* The nearest points (up to WPD_KNN_MAX) closer than both cap and
+ * WPD_SHARP_REACH spacings to q, in (d2, x, y, z) order, into pts, the
+ * spacing from the WPD_SHARP_SPACING_K-th neighbour closer than cap.
+ * Returns how many (0 when fewer than WPD_SHARP_SPACING_K + 1 lie within
+ * cap). The spacing is read from one collection of radius at least
+ * `first` (about a grid cell) when that holds enough points (the nearest
+ * then lie within it), else from the growing boxes of capped_knn (rare).
+ * The collection's radius is the last point's reach when larger: most
+ * often it holds this one's reach too, and one collection is all (a second
+ * when it does not and holds fewer than WPD_KNN_MAX points; when it holds
+ * more, the nearest lie within it). */
+static int neighbourhood(const wpd_grid *g, const double q[3], double cap, sharp_scratch *sc,
+                         double *pts, double *spacing)
+{
+    double first = fmin(cap, 1.2 * g->cell);
+    double rho = fmin(cap, fmax(first, sc->hint));
+    if (collect(g, q, rho, sc))
+        return heap_neighbourhood(g, q, cap, pts, spacing);
+    if (sc->n > WPD_SHARP_SPACING_K) {
+        spacing_of(kth_d2(sc->a, sc->n), spacing); /* the 13 nearest lie within rho */
+    } else {
+        capped_best h;
+        if (capped_knn(g, q, WPD_SHARP_SPACING_K + 1, cap, &h) <= WPD_SHARP_SPACING_K)
+            return 0;
+        spacing_of(h.d2[WPD_SHARP_SPACING_K], spacing);
+    }
+    double reach = fmin(WPD_SHARP_REACH * *spacing, cap);
+    sc->hint = reach;
+    if (reach > rho && sc->n < WPD_KNN_MAX && collect(g, q, reach, sc))
+        return heap_neighbourhood(g, q, cap, pts, spacing);
+    keep_within(sc, reach);
+    size_t m = sc->n;
+    if (m > WPD_KNN_MAX) {
+        select_smallest(sc->a, m, WPD_KNN_MAX);
+        m = WPD_KNN_MAX;
+    }
+    sort_cands(sc->a, m);
+    for (size_t j = 0; j < m; j++)
+        memcpy(pts + 3 * j, sc->a[j].p, 3 * sizeof(double));
+    return (int)m;
+}
+
+/* The label of the point at q: the crease test on its neighbourhood. */
+static int label_point(const wpd_grid *g, const double q[3], double cap, sharp_scratch *sc,
+                       wpd_crease_verdict *why)
+{
+    double pts[3 * WPD_KNN_MAX], spacing;
+    int got = neighbourhood(g, q, cap, sc, pts, &spacing);
+    if (got <= 0) {
         *why = WPD_CREASE_SMALL_FACE;
         return 0;
     }
-    double pts[3 * WPD_KNN_MAX];
-    for (int j = 0; j < got; j++)
-        memcpy(pts + 3 * j, h.p[j], 3 * sizeof(double));
     *why = wpd_crease_test(pts, got, q, spacing);
     return *why == WPD_CREASE_ON;
 }
@@ -210,13 +416,18 @@ void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, 
     size_t slots = surface->n;
     /* Each label is computed on its own from its neighbourhood: any
      * schedule gives the same labels. */
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
-    for (size_t s = 0; s < slots; s++) {
-        uint32_t id = surface->id[s];
-        if (id < begin || id >= end)
-            continue;
-        wpd_crease_verdict why;
-        edge[id] = (uint8_t)label_point(surface, surface->xyz + 3 * s, cap, &why);
+#pragma omp parallel num_threads(threads)
+    {
+        sharp_scratch sc = {0};
+#pragma omp for schedule(dynamic, 1024)
+        for (size_t s = 0; s < slots; s++) {
+            uint32_t id = surface->id[s];
+            if (id < begin || id >= end)
+                continue;
+            wpd_crease_verdict why;
+            edge[id] = (uint8_t)label_point(surface, surface->xyz + 3 * s, cap, &sc, &why);
+        }
+        free(sc.a);
     }
 }
 
@@ -225,10 +436,77 @@ void wpd_sharp_verdicts(const wpd_grid *surface, double cap, uint8_t *verdict, i
     if (threads <= 0)
         threads = omp_get_max_threads();
     size_t slots = surface->n;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1024)
-    for (size_t s = 0; s < slots; s++) {
-        wpd_crease_verdict why;
-        label_point(surface, surface->xyz + 3 * s, cap, &why);
-        verdict[surface->id[s]] = (uint8_t)why;
+#pragma omp parallel num_threads(threads)
+    {
+        sharp_scratch sc = {0};
+#pragma omp for schedule(dynamic, 1024)
+        for (size_t s = 0; s < slots; s++) {
+            wpd_crease_verdict why;
+            label_point(surface, surface->xyz + 3 * s, cap, &sc, &why);
+            verdict[surface->id[s]] = (uint8_t)why;
+        }
+        free(sc.a);
     }
+}
+
+/* ---- Labels on demand ---------------------------------------------------- */
+
+struct wpd_sharp_labeller {
+    const wpd_grid *g;
+    const double *xyz;
+    double cap;
+    uint8_t *edge;
+    int callers;
+    sharp_scratch *scratch; /* [callers] */
+    uint64_t *count;        /* [callers], labels each computed */
+};
+
+wpd_sharp_labeller *wpd_sharp_labeller_new(const wpd_grid *surface, const double *xyz, double cap,
+                                           uint8_t *edge, int callers)
+{
+    wpd_sharp_labeller *l = calloc(1, sizeof *l);
+    if (!l)
+        return NULL;
+    *l = (wpd_sharp_labeller){surface, xyz, cap, edge, callers > 1 ? callers : 1, NULL, NULL};
+    l->scratch = calloc((size_t)l->callers, sizeof *l->scratch);
+    l->count = calloc((size_t)l->callers, sizeof *l->count);
+    if (!l->scratch || !l->count) {
+        wpd_sharp_labeller_free(l);
+        return NULL;
+    }
+    return l;
+}
+
+int wpd_sharp_label(void *ctx, uint32_t point)
+{
+    wpd_sharp_labeller *l = ctx;
+    int k = l->callers > 1 ? omp_get_thread_num() : 0;
+    sharp_scratch none = {0}, *sc = k < l->callers ? &l->scratch[k] : &none;
+    wpd_crease_verdict why;
+    int edge = label_point(l->g, l->xyz + 3 * (size_t)point, l->cap, sc, &why);
+    if (sc == &none)
+        free(none.a);
+    else
+        l->count[k]++;
+    l->edge[point] = (uint8_t)edge;
+    return edge;
+}
+
+uint64_t wpd_sharp_labeller_count(const wpd_sharp_labeller *l)
+{
+    uint64_t n = 0;
+    for (int k = 0; k < l->callers; k++)
+        n += l->count[k];
+    return n;
+}
+
+void wpd_sharp_labeller_free(wpd_sharp_labeller *l)
+{
+    if (!l)
+        return;
+    for (int k = 0; l->scratch && k < l->callers; k++)
+        free(l->scratch[k].a);
+    free(l->scratch);
+    free(l->count);
+    free(l);
 }

@@ -45,6 +45,21 @@
 void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, double cap,
                              uint8_t *edge, int threads);
 
+/* Labels on demand, for the Poisson pass (method/poisson.h, wpd_labeller):
+ * the label of source point i of the grid (coordinates xyz[3 i ..], the
+ * array the grid was built from), the one wpd_detect_sharp_capped gives,
+ * computed when asked and kept in edge[i]. `callers`: how many threads may
+ * ask at once (1: one at a time, from any thread; more: OpenMP threads
+ * 0 .. callers - 1). NULL out of memory. */
+typedef struct wpd_sharp_labeller wpd_sharp_labeller;
+wpd_sharp_labeller *wpd_sharp_labeller_new(const wpd_grid *surface, const double *xyz, double cap,
+                                           uint8_t *edge, int callers);
+/* A wpd_labeller: ctx is a wpd_sharp_labeller. */
+int wpd_sharp_label(void *ctx, uint32_t point);
+/* Labels computed so far. */
+uint64_t wpd_sharp_labeller_count(const wpd_sharp_labeller *l);
+void wpd_sharp_labeller_free(wpd_sharp_labeller *l);
+
 /* For measurements: the crease test's verdict (wpd_crease_verdict) on
  * every grid point, verdict indexed by source index. */
 void wpd_sharp_verdicts(const wpd_grid *surface, double cap, uint8_t *verdict, int threads);

@@ -7,7 +7,7 @@ double wpd_budget_sample_fraction(uint64_t target, uint64_t points)
     return f < 1 ? f : 1;
 }
 
-size_t wpd_budget_tile_point_bytes(double sample_fraction)
+size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp)
 {
     /* A point a tile reads (its own and its halo's): coordinates, index and
      * halo flag (33) plus what the Poisson pass adds (candidate and kept
@@ -24,14 +24,17 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction)
      * 512M on 2 threads from 1 % to 50 %, where 128 + 360 f gave 234, 185
      * and 216 MB. */
     double smoothing = 74 + 422 * sample_fraction;
-    return smoothing > 128 ? (size_t)smoothing : 128;
+    /* --sharp: the labeller's grid over the view (coordinates and slot ids
+     * 28, cells ~4) and the labels (1), held through the Poisson pass. */
+    double poisson = sharp ? 128 + 33 : 128;
+    return smoothing > poisson ? (size_t)smoothing : (size_t)poisson;
 }
 
-size_t wpd_budget_min(uint64_t target, uint64_t points)
+size_t wpd_budget_min(uint64_t target, uint64_t points, int sharp)
 {
     return WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS / 4 +
            (size_t)WPD_TILES_IN_FLIGHT * WPD_BUDGET_MIN_TILE_POINTS *
-               wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points));
+               wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points), sharp);
 }
 
 size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size)
@@ -39,11 +42,11 @@ size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size)
     return (size_t)n * (record_size + 140) + ((size_t)32 << 20);
 }
 
-uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points)
+uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points, int sharp)
 {
     size_t fixed = WPD_BUDGET_FIXED_BYTES + WPD_BUDGET_SPILL_BUFFERS;
     size_t left = mem > fixed ? mem - fixed : 0;
-    size_t per = wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points));
+    size_t per = wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points), sharp);
     uint64_t m = left / ((size_t)WPD_TILES_IN_FLIGHT * per);
     return m < WPD_BUDGET_MIN_TILE_POINTS ? WPD_BUDGET_MIN_TILE_POINTS : m;
 }

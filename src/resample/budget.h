@@ -44,13 +44,14 @@ double wpd_budget_sample_fraction(uint64_t target, uint64_t points);
  * (33), the larger of the Poisson scratch and the smoothing surface grid,
  * and for the fraction f of a sample it may leave, what that sample costs
  * while its tile is smoothed (the largest of the phases: held with its
- * share of the neighbours' context and its smoothing state). Records never
- * enter tiles. */
-size_t wpd_budget_tile_point_bytes(double sample_fraction);
+ * share of the neighbours' context and its smoothing state). With sharp
+ * (--sharp) the Poisson pass also holds the labeller's grid over the
+ * view's points and their labels. Records never enter tiles. */
+size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp);
 
 /* Smallest budget a tiled run to target samples out of points accepts:
  * below it the run is refused before the first read. */
-size_t wpd_budget_min(uint64_t target, uint64_t points);
+size_t wpd_budget_min(uint64_t target, uint64_t points, int sharp);
 
 /* Budget needed to hold a cloud of n points as one tile in memory (all
  * threads on it): measured 380 MB peak for the 2.27 M-point NC Raleigh scan
@@ -60,7 +61,7 @@ size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size);
 /* Home points a tile may hold so that WPD_TILES_IN_FLIGHT of them fit
  * beside the fixed part and the spill buffers (at least
  * WPD_BUDGET_MIN_TILE_POINTS). */
-uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points);
+uint64_t wpd_budget_max_tile_points(size_t mem, uint64_t target, uint64_t points, int sharp);
 
 /* min(threads, 1 + room / per_thread), at least 1: each thread beyond the
  * first needs per_thread bytes of its own. */

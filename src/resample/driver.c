@@ -90,7 +90,7 @@ static int copy_tile_boxes(wpd_run *run)
 
 static int check_budget(const wpd_run *run, wpd_error *err)
 {
-    size_t need = wpd_budget_min(run->opt->target, wpd_cloud_count(run->cloud));
+    size_t need = wpd_budget_min(run->opt->target, wpd_cloud_count(run->cloud), run->p->sharp);
     if (run->res->in_memory || run->opt->mem_bytes >= need)
         return 0;
     return wpd_fail(err, WPD_E_MEMORY,
@@ -135,7 +135,7 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
                       sqrt((double)run->opt->target / (double)run->scan.count);
     uint64_t max_points = res->in_memory ? run->scan.count
                                          : wpd_budget_max_tile_points(mem, run->opt->target,
-                                                                    run->scan.count);
+                                                                    run->scan.count, run->p->sharp);
     if (wpd_plan_tiles(&run->scan, max_points, res->in_memory ? 1 : run->opt->min_tiles,
                        run->halo, &run->plan, err))
         return -1;

@@ -58,13 +58,18 @@ typedef struct pass_ctx {
     uint8_t *processed;        /* [ntiles] decided in this pass at least once */
     wpd_poisson *memo;         /* one in-memory tile: grid and priorities prepared
                                   once for every pass */
-    uint8_t *memo_edge;        /* and its sharp labels (the context borrows them) */
+    uint8_t *memo_edge;        /* and its sharp labels (the context borrows them),
+                                  computed as the passes ask (WPD_LABEL_UNKNOWN until) */
+    wpd_sharp_labeller *memo_labeller;
 } pass_ctx;
 
 /* One tile's view, classified. */
 typedef struct view {
     wpd_tile_data d;
-    uint8_t *edge;             /* [d.n] sharp labels, or NULL */
+    uint8_t *edge;             /* [d.n] sharp labels (WPD_LABEL_UNKNOWN until the pass
+                                  asks), or NULL */
+    wpd_grid label_grid;       /* the view's points, for the labeller */
+    wpd_sharp_labeller *labeller;
     uint32_t *cand;            /* candidates (view indices) */
     size_t ncand;
     size_t theirs;             /* candidates that are other tiles' UNKNOWN points */
@@ -84,6 +89,8 @@ static void view_free(const wpd_run *run, view *v)
 {
     wpd_tiles_release(&run->tiles, &v->d);
     free(v->edge);
+    wpd_sharp_labeller_free(v->labeller);
+    wpd_grid_free(&v->label_grid);
     free(v->cand);
     free(v->blind);
     free(v->cls);
@@ -142,24 +149,27 @@ typedef struct cursors {
     size_t *store, *unknown;
 } cursors;
 
-/* Sharp labels of the points of d, from the input within r0 of each (the
- * capped detector): exact for own points and halo points closer than
- * H - r0 to the box, the ones that are not blind. keep: where to build
- * the grid and leave it (the one tile in memory: the run's surface grid,
- * which smoothing uses next), or NULL. */
-static int label_sharp(const wpd_run *run, const wpd_tile_data *d, wpd_grid *keep, int threads,
-                       uint8_t **edge, wpd_error *err)
+/* Sharp labels of the points of d as the Poisson pass asks for them: *edge
+ * all WPD_LABEL_UNKNOWN, and a labeller over a grid of d's points (built in
+ * *surface on `threads` unless it holds one already: the one tile in memory
+ * shares the run's surface grid, which the Poisson pass and smoothing use
+ * too), asked from `callers` threads at once (the pass's). The labels are
+ * those of every point's (take_all.c); the pass asks for about a fifth of
+ * them (docs/algorithm.md section 5, Cost). */
+static int labels_on_demand(const wpd_run *run, const wpd_tile_data *d, wpd_grid *surface,
+                            int threads, int callers, uint8_t **edge,
+                            wpd_sharp_labeller **labeller, wpd_error *err)
 {
-    wpd_grid own = {0}, *surface = keep ? keep : &own;
     *edge = malloc(d->n ? d->n : 1);
     if (!*edge)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu edge labels", d->n);
+    memset(*edge, WPD_LABEL_UNKNOWN, d->n);
     if (!surface->n && wpd_grid_build_knn(surface, d->xyz, NULL, d->n, run->p->k,
                                           run->surface_dk, threads, err))
         return -1;
-    wpd_detect_sharp_capped(surface, 0, d->n, run->res->radius_estimate, *edge, threads);
-    wpd_grid_free(&own);
-    return 0;
+    *labeller = wpd_sharp_labeller_new(surface, d->xyz, run->res->radius_estimate, *edge,
+                                       callers);
+    return *labeller ? 0 : wpd_fail(err, WPD_E_MEMORY, "out of memory for the labeller");
 }
 
 /* What a view point is for the tile (view.cls). */
@@ -232,7 +242,9 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     v->wanted = malloc(m);
     if (!v->cls || !v->blind || !v->wanted)
         return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    if (run->p->sharp && label_sharp(run, &v->d, NULL, threads, &v->edge, err))
+    /* The three-valued pass asks from one thread */
+    if (run->p->sharp &&
+        labels_on_demand(run, &v->d, &v->label_grid, threads, 1, &v->edge, &v->labeller, err))
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
     /* r-balls past the halo, and sharp labels (computed within r0) */
@@ -340,7 +352,7 @@ static size_t walk_theirs(const wpd_run *run, const view *v, size_t nkept, size_
             const double *x = v->d.xyz + 3 * (size_t)i;
             f->gid[m] = v->d.gid[i];
             memcpy(f->xyz + 3 * m, x, 3 * sizeof *f->xyz);
-            f->edge[m] = v->edge ? v->edge[i] : 0;
+            f->edge[m] = v->edge && v->edge[i] == 1; /* a removed point's may be unknown */
             f->kept[m] = (uint8_t)kept;
             f->owner[m] = run->plan.cell_tile[wpd_scan_cell_of(&run->scan, x)];
         }
@@ -514,6 +526,23 @@ bad:
 
 static const wpd_tile_share tile_state = {pack_tile_state, unpack_tile_state, 0};
 
+/* wpd_poisson_pass_certain with labels asked of labeller (NULL: none). */
+static long certain_pass(const wpd_poisson_certain_input *in, wpd_sharp_labeller *labeller,
+                         uint32_t *kept, uint32_t *unknown, size_t *nunknown, wpd_error *err)
+{
+    *nunknown = 0;
+    if (in->base.ncand == 0)
+        return 0;
+    wpd_poisson *ps = wpd_poisson_prepare_certain(in, err);
+    if (!ps)
+        return -1;
+    if (labeller)
+        wpd_poisson_set_labeller(ps, wpd_sharp_label, labeller);
+    long got = wpd_poisson_run_certain(ps, in->base.r, kept, unknown, nunknown, err);
+    wpd_poisson_release(ps);
+    return got;
+}
+
 /* One tile of a round of the pass at radius pc->r. */
 static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -535,7 +564,7 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
         {v.d.xyz, v.d.gid, v.edge, v.cand, v.ncand, v.fixed, v.nfixed, pc->r, p->seed, threads},
         v.blind, v.fixed_edge, v.wanted};
     size_t nunknown = 0;
-    long m = wpd_poisson_pass_certain(&in, v.kept, v.unknown, &nunknown, err);
+    long m = certain_pass(&in, v.labeller, v.kept, v.unknown, &nunknown, err);
     if (m < 0)
         goto done;
     if (settle(run, pc, t, &v, (size_t)m, nunknown) ||
@@ -546,9 +575,14 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
     if (v.edge && pc->round == 0 && run->res->passes == 0) {
         uint64_t sharp = 0;
         for (size_t i = 0; i < v.d.n; i++)
-            sharp += v.edge[i] && !v.d.halo[i];
+            sharp += v.edge[i] == 1 && !v.d.halo[i];
 #pragma omp atomic
         run->res->sharp_points += sharp;
+    }
+    if (v.labeller) {
+        uint64_t asked = wpd_sharp_labeller_count(v.labeller);
+#pragma omp atomic
+        run->res->sharp_labelled += asked;
     }
     rc = 0;
 done:
@@ -574,12 +608,10 @@ static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
         wpd_fail(err, WPD_E_MEMORY, "out of memory for %zu points", d.n);
         goto done;
     }
-    if (p->sharp && !pc->memo_edge) {
-        if (label_sharp(run, &d, &run->surface, run->threads, &pc->memo_edge, err))
-            goto done;
-        for (size_t i = 0; i < d.n; i++)
-            run->res->sharp_points += pc->memo_edge[i];
-    }
+    if (p->sharp && !pc->memo_edge &&
+        labels_on_demand(run, &d, &run->surface, run->threads, run->threads, &pc->memo_edge,
+                         &pc->memo_labeller, err))
+        goto done;
     if (!pc->memo) {
         /* The surface grid, when the run built one over these points. */
         wpd_poisson_input in = {d.xyz, d.gid, pc->memo_edge, NULL, d.n, NULL, 0, pc->r, p->seed,
@@ -588,6 +620,8 @@ static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
                                                 : wpd_poisson_prepare(&in, err);
         if (!pc->memo)
             goto done;
+        if (pc->memo_labeller)
+            wpd_poisson_set_labeller(pc->memo, wpd_sharp_label, pc->memo_labeller);
     }
     long m = wpd_poisson_run(pc->memo, pc->r, kept, err);
     if (m < 0)
@@ -649,6 +683,7 @@ static void pass_ctx_free(const wpd_run *run, pass_ctx *pc)
     free(pc->foreign);
     free(pc->processed);
     wpd_poisson_release(pc->memo);
+    wpd_sharp_labeller_free(pc->memo_labeller);
     free(pc->memo_edge);
     memset(pc, 0, sizeof *pc);
 }
@@ -684,62 +719,22 @@ int wpd_poisson_phase(wpd_run *run, wpd_error *err)
             break;
         }
     }
+    if (pc.memo_labeller) { /* the one tile in memory: labels asked in every pass */
+        run->res->sharp_labelled = wpd_sharp_labeller_count(pc.memo_labeller);
+        for (size_t i = 0; i < run->tiles.mem.n; i++)
+            run->res->sharp_points += pc.memo_edge[i] == 1;
+    }
     pass_ctx_free(run, &pc);
     run->res->poisson_count = wpd_run_store_count(run);
     if (rc == 0 && run->owner && run->plan.ntiles > 1) {
         /* Each rank counted its own tiles' (one tile is not shared: every
          * rank ran it and counted the same) */
-        uint64_t sum[2] = {(uint64_t)run->res->resolution_tiles, run->res->sharp_points};
-        rc = wpd_par_sum_u64(run->opt->par, sum, 2, err);
+        uint64_t sum[3] = {(uint64_t)run->res->resolution_tiles, run->res->sharp_points,
+                           run->res->sharp_labelled};
+        rc = wpd_par_sum_u64(run->opt->par, sum, 3, err);
         run->res->resolution_tiles = (int)sum[0];
         run->res->sharp_points = sum[1];
+        run->res->sharp_labelled = sum[2];
     }
     return rc;
-}
-
-/* n >= the input: every own point is kept as it is, with its sharp label
- * under --sharp (own points see their whole neighbourhood in the halo). */
-static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
-{
-    (void)arg;
-    wpd_tile_data d;
-    if (wpd_tiles_read(&run->tiles, t, &d, err))
-        return -1;
-    wpd_tile_samples *s = &run->store[t];
-    uint8_t *edge = NULL;
-    int rc = run->p->sharp ? label_sharp(run, &d, NULL, threads, &edge, err) : 0;
-    if (rc == 0 && wpd_samples_alloc(s, d.n, edge != NULL))
-        rc = wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
-    uint64_t sharp = 0;
-    for (size_t i = 0; rc == 0 && i < d.n; i++) {
-        if (d.halo[i])
-            continue;
-        s->gid[s->n] = d.gid[i];
-        memcpy(s->xyz + 3 * s->n, d.xyz + 3 * i, 3 * sizeof *s->xyz);
-        if (edge)
-            sharp += s->edge[s->n] = edge[i];
-        s->n++;
-    }
-#pragma omp atomic
-    run->res->sharp_points += sharp;
-    free(edge);
-    wpd_tiles_release(&run->tiles, &d);
-    if (rc)
-        wpd_store_drop(run, t);
-    else
-        rc = wpd_store_save(run, t, err);
-    return rc;
-}
-
-int wpd_take_all_phase(wpd_run *run, wpd_error *err)
-{
-    if (wpd_run_each_tile_shared(run, NULL, take_all_tile, NULL, NULL, NULL, err))
-        return -1;
-    if (!run->owner || run->plan.ntiles < 2)
-        return 0;
-    uint64_t sharp = run->res->sharp_points; /* each rank counted its own tiles' */
-    if (wpd_par_sum_u64(run->opt->par, &sharp, 1, err))
-        return -1;
-    run->res->sharp_points = sharp;
-    return 0;
 }

@@ -93,7 +93,13 @@ typedef struct wpd_resample_result {
     size_t isolated;          /* ... kept still: the input there sparser than the samples */
     size_t guarded_moves;     /* smoothing moves shortened or refused to keep the spacing
                                  and the coverage (all iterations; method/smooth_guard.h) */
-    uint64_t sharp_points;    /* input points labelled sharp */
+    uint64_t sharp_points;    /* input points labelled sharp, of those labelled: the
+                                 Poisson passes ask only for the labels they need
+                                 (every one when n >= the input) */
+    uint64_t sharp_labelled;  /* labels computed (through tiles, a halo point's or a
+                                 point of a tile run again count each time). This and
+                                 sharp_points depend on the threads and the tiling
+                                 (which labels the passes ask for); the samples do not */
     int in_memory;            /* 1: one tile held in memory, no spill */
     int tiles, colours;
     uint64_t largest_tile;
