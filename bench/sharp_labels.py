@@ -12,7 +12,7 @@
             record carries it), same definitions over the samples.
 
 Usage: sharp_labels.py WPD [SEEDS] [N]   (SEEDS like 1-10 or 1,3; N 300000)
-Prints one line per seed and the number of seeds with both >= 0.8. The
+Prints one line per seed and, for each, the number of seeds with both >= 0.8. The
 clouds are made once in bench/out/labels and reused.
 """
 import os
@@ -60,7 +60,7 @@ def main():
     seeds = seeds_of(sys.argv[2] if len(sys.argv) > 2 else "1-10")
     n = int(sys.argv[3]) if len(sys.argv) > 3 else 300000
     os.makedirs(OUT, exist_ok=True)
-    ok = 0
+    ok = rok = 0
     print("seed  r0      edges: labelled precision recall   resample: labelled precision recall")
     for s in seeds:
         city = os.path.join(OUT, f"oblique_{n}_{s}.las")
@@ -80,9 +80,11 @@ def main():
         rlab = int(field(h, "edge").sum())
         os.unlink(tmp)
         ok += ep >= 0.8 and er >= 0.8
+        rok += rp >= 0.8 and rr >= 0.8
         print(f"{s:4d}  {float(r0):.3f}  {elab:8d} {ep:9.3f} {er:6.3f}   {rlab:17d} {rp:9.3f} "
               f"{rr:6.3f}", flush=True)
     print(f"edges: precision and recall both >= 0.8 on {ok} of {len(seeds)} seeds")
+    print(f"resample: precision and recall both >= 0.8 on {rok} of {len(seeds)} seeds")
 
 
 if __name__ == "__main__":
