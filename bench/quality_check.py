@@ -2,6 +2,7 @@
 """bench/quality.sh's criteria without running its baselines again.
 
     bench/quality_check.py [--wpd BIN] [--seed S] [--threads T] [--jobs J] [--scans A,B]
+                           [--options="--iterations 4 ..."]
 
 Runs the wpd rows of bench/quality.sh (`wpd resample IN -o OUT -n N --force
 -q`, and with --no-smooth) for every scan and target of
@@ -10,7 +11,8 @@ they do not depend on wpd), measures them with `wpd metrics --json`, and
 judges the wpd row by quality.sh's criteria: exact n; local CV and Voronoi
 CV the lowest of the rows; Hausdorff within 5 % of the best row; rho >= 0.5.
 Prints one line per case and a closing "wpd meets every criterion in N of M
-cases"; --json FILE also writes every case's figures.
+cases"; --json FILE also writes every case's figures. --options adds resample
+options to both wpd rows (to try other defaults against the same criteria).
 """
 import argparse
 import concurrent.futures
@@ -54,7 +56,8 @@ def run_case(args, case, tmp):
     for name, extra in (("wpd", []), ("wpd --no-smooth", ["--no-smooth"])):
         out = os.path.join(tmp, "%s_%d_%s%s" % (scan, n, len(extra), ext))
         subprocess.run([args.wpd, "resample", src, "-o", out, "-n", str(n), "--force", "-q",
-                        "--seed", str(args.seed), "--threads", str(args.threads), *extra],
+                        "--seed", str(args.seed), "--threads", str(args.threads),
+                        *args.options.split(), *extra],
                        check=True)
         rows[name] = measure(args.wpd, src, out)
         os.remove(out)
@@ -84,6 +87,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--scans", default="")
     ap.add_argument("--json")
+    ap.add_argument("--options", default="")
     args = ap.parse_args()
     base = baselines(args.baselines)
     cases = sorted(base)
