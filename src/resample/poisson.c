@@ -587,11 +587,7 @@ static int certain_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *
     rc = 0;
 done:
     view_free(run, &v);
-    if (rc)
-        wpd_store_drop(run, t);
-    else
-        rc = wpd_store_save(run, t, err);
-    return rc;
+    return wpd_store_finish(run, t, rc, err);
 }
 
 /* The one tile of an in-memory run: no halo, nothing unknown; the grid and

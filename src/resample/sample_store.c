@@ -103,6 +103,14 @@ void wpd_store_drop(wpd_run *run, int t)
         wpd_samples_free(&run->store[t]);
 }
 
+int wpd_store_finish(wpd_run *run, int t, int rc, wpd_error *err)
+{
+    if (rc == 0)
+        return wpd_store_save(run, t, err);
+    wpd_store_drop(run, t);
+    return rc;
+}
+
 /* Which samples a subset keeps: those within dist of the faces of tile's
  * box or outside it (faces set: a border), else those within dist of the
  * box. */

@@ -44,6 +44,10 @@ int wpd_store_load(wpd_run *run, int t, wpd_error *err);
 int wpd_store_save(wpd_run *run, int t, wpd_error *err);
 /* Lets run->store[t] go unchanged (in memory: nothing). */
 void wpd_store_drop(wpd_run *run, int t);
+/* The end of a phase's work on tile t that returned rc: saves the samples
+ * when rc is 0 (returning what the save returns), else drops them and
+ * returns rc. */
+int wpd_store_finish(wpd_run *run, int t, int rc, wpd_error *err);
 /* Tile u's samples within dist of tile t's box (u != t, dist at most 2
  * halos), ascending by gid, into out (malloc'd). Returns 0 or -1. */
 int wpd_store_near(const wpd_run *run, int t, int u, double dist, wpd_tile_samples *out,

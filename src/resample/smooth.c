@@ -68,11 +68,7 @@ done:
     free(ctx);
     free(ctx_edge);
     wpd_tiles_release(&run->tiles, &d);
-    if (rc)
-        wpd_store_drop(run, t);
-    else
-        rc = wpd_store_save(run, t, err);
-    return rc;
+    return wpd_store_finish(run, t, rc, err);
 }
 
 int wpd_smooth_phase(wpd_run *run, wpd_error *err)

@@ -62,11 +62,7 @@ static int take_all_tile(wpd_run *run, int t, int threads, void *arg, wpd_error 
     }
     free(edge);
     wpd_tiles_release(&run->tiles, &d);
-    if (rc)
-        wpd_store_drop(run, t);
-    else
-        rc = wpd_store_save(run, t, err);
-    return rc;
+    return wpd_store_finish(run, t, rc, err);
 }
 
 int wpd_take_all_phase(wpd_run *run, wpd_error *err)
