@@ -446,17 +446,22 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
     wpd_class_options co;
     if (wpd_class_args_resolve(&o->classes, cloud, &co, err))
         return -1;
-    char *end;
-    double percent = strtod(o->count_text, &end);
+    const char *text = o->count_text ? o->count_text : "0", *end;
+    double percent = strtod(text, (char **)&end);
     co.rest_count = ro->target;
     if (*end == '%')
         co.rest_percent = percent; /* parse_count checked it */
+    /* A collection's radius samples the group whatever -n says: never
+     * kept whole for a count (-n is then only compared with). */
+    if (ro->fixed_radius > 0)
+        co.rest_count = 1, co.rest_percent = -1;
     if (wpd_resample_by_class(cloud, &co, ro, o->quiet, cr, err))
         return -1;
     *res = cr->merged;
     memset(&cr->merged, 0, sizeof cr->merged);
     info->classes = cr;
-    info->target = cr->groups[0].target;
+    if (!(ro->fixed_radius > 0))
+        info->target = cr->groups[0].target;
     return 0;
 }
 

@@ -38,9 +38,9 @@ static const char *estimate_name(int method)
 static int contradicts(const wpd_collection *c, const char *option, const char *ours,
                        const char *theirs, wpd_error *err)
 {
-    return wpd_fail(err, WPD_E_USAGE, "%s: %s %s contradicts the collection's %s (resample "
-                    "the collection with --rebuild to change it)", c->label, option, ours,
-                    theirs);
+    return wpd_fail(err, WPD_E_USAGE, "%s: the collection was resampled with %s %s, this run "
+                    "has %s (resample the collection with --rebuild to change it)", c->label,
+                    option, theirs, ours);
 }
 
 static int check_text(const wpd_collection *c, const char *option, const char *ours,
