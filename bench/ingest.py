@@ -82,8 +82,10 @@ def synth_tiles(n, work):
 
 
 def scan_tiles(path, work):
-    h = ingest_figures.las_box(path)
-    xm, ym = (h[0] + h[2]) / 2, (h[1] + h[3]) / 2
+    """Four tiles split at the median x and y of the points (as many
+    points left as right, below as above)."""
+    xyz = ingest_figures.las_xyz(path)
+    xm, ym = float(np.median(xyz[:, 0])), float(np.median(xyz[:, 1]))
     tiles = {}
     for k, (x0, x1, y0, y1) in enumerate([(-1e18, xm, -1e18, ym), (xm, 1e18, -1e18, ym),
                                           (-1e18, xm, ym, 1e18), (xm, 1e18, ym, 1e18)]):
@@ -141,6 +143,18 @@ def quality(args):
     coll = {t: os.path.join(coll_dir, os.path.basename(p)) for t, p in tiles.items()}
     one = {t: os.path.join(one_dir, os.path.basename(p)) for t, p in tiles.items()}
     f = ingest_figures.figures(WPD, tiles, nights, coll, one, reports[0]["radius"], work)
+    if args.independent:  # the nights as clouds of their own, as before collections
+        alone = {}
+        for k, names in enumerate(nights):
+            d = os.path.join(work, "alone%d" % k)
+            shutil.rmtree(d, ignore_errors=True)
+            os.makedirs(d)
+            night(tiles, names, d, opts + spacing)
+            alone.update({t: os.path.join(d, os.path.basename(tiles[t])) for t in names})
+        g = ingest_figures.figures(WPD, tiles, nights, alone, one, reports[0]["radius"], work)
+        f["independent"] = {k: g[k] for k in ("closest_across", "closest_within", "seam_p1",
+                                              "seam_p1_ratio", "seam_close_pairs",
+                                              "hausdorff_ratio", "local_cv_ratio")}
     f["nights"] = nights
     f["night_reports"] = reports
     f["one_radius"] = rone["radius"]
@@ -224,6 +238,8 @@ def main():
     ap.add_argument("--atypical", type=float)
     ap.add_argument("--percent", default="10%")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--independent", action="store_true",
+                    help="also each night as a cloud of its own (no collection)")
     ap.add_argument("--work", default="bench/out/ingest")
     ap.add_argument("opts", nargs="*", help="more wpd resample options (after --)")
     args = ap.parse_args()

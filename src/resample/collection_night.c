@@ -159,7 +159,8 @@ static int sort_inputs(const wpd_collection *c, char *const *inputs, int n, int 
             if ((pass == 0) == !e)
                 order[k++] = i;
         }
-    for (int i = 0; i < n; i++)
+    /* --per-input refuses them as outputs written twice (output.h) */
+    for (int i = 0; c->append[0] && i < n; i++)
         for (int j = 0; j < i; j++)
             if (!strcmp(name_of(inputs[i]), name_of(inputs[j])))
                 return wpd_fail(err, WPD_E_USAGE, "%s and %s: one file name twice (a "
