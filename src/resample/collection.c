@@ -57,7 +57,8 @@ static void clear_state(wpd_collection *c)
         free(c->inputs[i].name), free(c->inputs[i].output);
     for (int i = 0; i < c->npending; i++)
         free(c->pending[i].from), free(c->pending[i].to);
-    free(c->outputs), free(c->inputs), free(c->pending);
+    free(c->outputs), free(c->inputs), free(c->pending), free(c->by_name);
+    c->by_name = NULL;
     wpd_coll_options_free(&c->opt);
     c->outputs = NULL, c->inputs = NULL, c->pending = NULL;
     c->noutputs = c->ninputs = c->npending = 0;
@@ -103,6 +104,30 @@ char *wpd_coll_class_list(const uint8_t *set)
     if (s)
         s[len] = '\0';
     return s;
+}
+
+static int compare_names(const void *a, const void *b)
+{
+    return strcmp(((const wpd_coll_name *)a)->name, ((const wpd_coll_name *)b)->name);
+}
+
+void wpd_coll_names_sort(wpd_coll_name *names, int n)
+{
+    qsort(names, (size_t)n, sizeof *names, compare_names);
+}
+
+int wpd_coll_names_find(const wpd_coll_name *names, int n, const char *name)
+{
+    wpd_coll_name key = {name, 0};
+    const wpd_coll_name *hit = n ? bsearch(&key, names, (size_t)n, sizeof *names,
+                                           compare_names) : NULL;
+    return hit ? hit->at : -1;
+}
+
+const wpd_coll_input *wpd_collection_find(const wpd_collection *c, const char *name)
+{
+    int at = c->by_name ? wpd_coll_names_find(c->by_name, c->ninputs, name) : -1;
+    return at >= 0 ? &c->inputs[at] : NULL;
 }
 
 /* ------------------------------------------------------------ the file */

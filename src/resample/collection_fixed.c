@@ -176,43 +176,45 @@ static int entry_near(const gather *g, const wpd_coll_input *e)
     return 0;
 }
 
-/* The entries of output o that come within reach, read from it. */
-static int read_output(gather *g, const wpd_collection *c, const char *o, const char *field,
-                       int *opened, wpd_error *err)
+/* The class field of an opened output (kept classes only). */
+static int class_field_of(gather *g, wpd_reader *r, const char *path, const char *field,
+                          wpd_error *err)
 {
-    wpd_reader *r = NULL;
-    char path[1400];
-    snprintf(path, sizeof path, "%s/%s", c->dir, o);
-    int rc = 0;
-    for (int i = 0; rc == 0 && i < c->ninputs; i++) {
-        const wpd_coll_input *e = &c->inputs[i];
-        if (strcmp(e->output, o) || !entry_near(g, e))
-            continue;
-        if (!r && !(r = wpd_reader_open(path, err)))
-            return -1;
-        (*opened)++;
-        if (g->keep && (g->class_dim = wpd_schema_find(&wpd_reader_header(r)->schema,
-                                                       *field ? field : "classification")) < 0)
-            rc = wpd_fail(err, WPD_E_INPUT, "%s: no field '%s' to tell its kept classes by",
-                          path, *field ? field : "classification");
-        else
-            rc = read_range(g, r, path, e->first, e->points, err);
-    }
-    wpd_reader_close(r);
-    return rc;
+    const char *name = *field ? field : "classification";
+    if (g->keep && (g->class_dim = wpd_schema_find(&wpd_reader_header(r)->schema, name)) < 0)
+        return wpd_fail(err, WPD_E_INPUT, "%s: no field '%s' to tell its kept classes by",
+                        path, name);
+    return 0;
 }
 
 int wpd_collection_fixed(const wpd_collection *c, wpd_night *night, double reach,
                          const uint8_t *keep, const char *class_field, wpd_error *err)
 {
     gather g = {night, reach * reach, keep, -1, NULL, 0, 0};
-    int rc = 0, opened = 0;
-    for (int k = 0; rc == 0 && k < c->noutputs; k++) {
-        int before = opened;
-        rc = read_output(&g, c, c->outputs[k].name, class_field ? class_field : "", &opened,
-                         err);
-        night->outputs_read += opened > before;
+    wpd_reader *r = NULL;
+    const char *open_name = NULL;
+    char path[1400];
+    int rc = 0;
+    /* The state's order (the same on every rank and every run): an output
+     * is opened once for a run of its entries (--append: one for all). */
+    for (int i = 0; rc == 0 && i < c->ninputs; i++) {
+        const wpd_coll_input *e = &c->inputs[i];
+        if (!entry_near(&g, e))
+            continue;
+        if (!open_name || strcmp(open_name, e->output)) {
+            wpd_reader_close(r);
+            snprintf(path, sizeof path, "%s/%s", c->dir, e->output);
+            open_name = e->output;
+            night->outputs_read++;
+            if (!(r = wpd_reader_open(path, err)) ||
+                class_field_of(&g, r, path, class_field ? class_field : "", err)) {
+                rc = -1;
+                break;
+            }
+        }
+        rc = read_range(&g, r, path, e->first, e->points, err);
     }
+    wpd_reader_close(r);
     if (rc) {
         free(g.xyz);
         return -1;

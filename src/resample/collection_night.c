@@ -116,25 +116,40 @@ static int check_outputs(const wpd_collection *c, wpd_error *err)
  * or its output would stay beside a state that no longer knows it. */
 static int check_rebuild(const wpd_collection *c, char *const *inputs, int n, wpd_error *err)
 {
-    for (int i = 0; i < c->ninputs; i++) {
-        int given = 0;
-        for (int j = 0; j < n && !given; j++)
-            given = !strcmp(name_of(inputs[j]), c->inputs[i].name);
-        if (!given)
-            return wpd_fail(err, WPD_E_USAGE, "%s: --rebuild resamples the whole collection: "
-                            "its input %s is not among the inputs", c->label, c->inputs[i].name);
-    }
-    return 0;
+    wpd_coll_name *given = malloc((size_t)(n > 0 ? n : 1) * sizeof *given);
+    if (!given)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    for (int j = 0; j < n; j++)
+        given[j] = (wpd_coll_name){name_of(inputs[j]), j};
+    wpd_coll_names_sort(given, n);
+    int rc = 0;
+    for (int i = 0; rc == 0 && i < c->ninputs; i++)
+        if (wpd_coll_names_find(given, n, c->inputs[i].name) < 0)
+            rc = wpd_fail(err, WPD_E_USAGE, "%s: --rebuild resamples the whole collection: "
+                          "its input %s is not among the inputs", c->label, c->inputs[i].name);
+    free(given);
+    return rc;
 }
 
 /* ------------------------------------------------------------ the inputs */
 
-static const wpd_coll_input *find_input(const wpd_collection *c, const char *name)
+/* Two inputs of one file name (a collection tells its inputs by name). */
+static int twice(char *const *inputs, int n, wpd_error *err)
 {
-    for (int i = 0; i < c->ninputs; i++)
-        if (!strcmp(c->inputs[i].name, name))
-            return &c->inputs[i];
-    return NULL;
+    wpd_coll_name *names = malloc((size_t)(n > 0 ? n : 1) * sizeof *names);
+    if (!names)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    for (int i = 0; i < n; i++)
+        names[i] = (wpd_coll_name){name_of(inputs[i]), i};
+    wpd_coll_names_sort(names, n);
+    int rc = 0;
+    for (int i = 1; rc == 0 && i < n; i++)
+        if (!strcmp(names[i - 1].name, names[i].name))
+            rc = wpd_fail(err, WPD_E_USAGE, "%s and %s: one file name twice (a collection "
+                          "tells its inputs by name)", inputs[names[i - 1].at],
+                          inputs[names[i].at]);
+    free(names);
+    return rc;
 }
 
 /* New inputs first (in the order given), the unchanged ones after; a
@@ -145,7 +160,7 @@ static int sort_inputs(const wpd_collection *c, char *const *inputs, int n, int 
     int k = 0;
     for (int pass = 0; pass < 2; pass++)
         for (int i = 0; i < n; i++) {
-            const wpd_coll_input *e = night->later ? find_input(c, name_of(inputs[i])) : NULL;
+            const wpd_coll_input *e = night->later ? wpd_collection_find(c, name_of(inputs[i])) : NULL;
             struct stat st;
             if (e && stat(inputs[i], &st) != 0)
                 return wpd_fail_errno(err, "%s: cannot read", inputs[i]);
@@ -160,14 +175,11 @@ static int sort_inputs(const wpd_collection *c, char *const *inputs, int n, int 
                 order[k++] = i;
         }
     /* --per-input refuses them as outputs written twice (output.h) */
-    for (int i = 0; c->append[0] && i < n; i++)
-        for (int j = 0; j < i; j++)
-            if (!strcmp(name_of(inputs[i]), name_of(inputs[j])))
-                return wpd_fail(err, WPD_E_USAGE, "%s and %s: one file name twice (a "
-                                "collection tells its inputs by name)", inputs[j], inputs[i]);
+    if (c->append[0] && twice(inputs, n, err))
+        return -1;
     night->skipped = 0;
     for (int i = 0; i < n; i++)
-        night->skipped += night->later && find_input(c, name_of(inputs[i])) != NULL;
+        night->skipped += night->later && wpd_collection_find(c, name_of(inputs[i])) != NULL;
     night->nnew = n - night->skipped;
     return 0;
 }

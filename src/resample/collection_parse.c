@@ -356,32 +356,47 @@ static int header(cursor *c, wpd_collection *col)
     return rc;
 }
 
-/* The facts must hang together: every input's output listed, every
- * rename from a temporary to a listed output, the numbers in range. */
-static int consistent(cursor *c, const wpd_collection *col)
+/* The facts must hang together: every input listed once and its output
+ * listed, every rename from a temporary to a listed output, the numbers in
+ * range. Sorted names: a state of many inputs is checked in n log n.
+ * Leaves col->by_name, the inputs' names sorted. */
+static int consistent(cursor *c, wpd_collection *col)
 {
     if (!(col->radius > 0) || !(col->factor > 0 && col->factor <= 1) ||
         !(col->opt.lambda > 0) || !(col->opt.voxel_frac > 0))
         return bad(c, "a positive radius, a density factor in (0, 1], positive options");
-    for (int i = 0; i < col->ninputs; i++) {
+    int n = col->ninputs, m = col->noutputs;
+    wpd_coll_name *outs = malloc((size_t)(m > 0 ? m : 1) * sizeof *outs);
+    col->by_name = malloc((size_t)(n > 0 ? n : 1) * sizeof *col->by_name);
+    if (!outs || !col->by_name) {
+        free(outs);
+        return bad(c, "fewer entries (out of memory)");
+    }
+    for (int k = 0; k < m; k++)
+        outs[k] = (wpd_coll_name){col->outputs[k].name, k};
+    for (int i = 0; i < n; i++)
+        col->by_name[i] = (wpd_coll_name){col->inputs[i].name, i};
+    wpd_coll_names_sort(outs, m);
+    wpd_coll_names_sort(col->by_name, n);
+    int rc = 0;
+    for (int k = 1; rc == 0 && k < m; k++)
+        if (!strcmp(outs[k - 1].name, outs[k].name))
+            rc = bad(c, "each output listed once");
+    for (int i = 1; rc == 0 && i < n; i++)
+        if (!strcmp(col->by_name[i - 1].name, col->by_name[i].name))
+            rc = bad(c, "each input listed once");
+    for (int i = 0; rc == 0 && i < n; i++) {
         const wpd_coll_input *e = &col->inputs[i];
-        int listed = 0;
-        for (int k = 0; k < col->noutputs; k++)
-            listed |= !strcmp(e->output, col->outputs[k].name);
-        for (int j = 0; j < i; j++)
-            if (!strcmp(col->inputs[j].name, e->name))
-                return bad(c, "each input listed once");
-        if (!listed || e->night > col->nights || e->first > UINT64_MAX - e->points)
-            return bad(c, "inputs whose outputs are listed, of nights up to \"nights\"");
+        if (wpd_coll_names_find(outs, m, e->output) < 0 || e->night > col->nights ||
+            e->first > UINT64_MAX - e->points)
+            rc = bad(c, "inputs whose outputs are listed, of nights up to \"nights\"");
     }
-    for (int i = 0; i < col->npending; i++) {
-        int listed = 0;
-        for (int k = 0; k < col->noutputs; k++)
-            listed |= !strcmp(col->pending[i].to, col->outputs[k].name);
-        if (!listed || !strstr(col->pending[i].from, ".wpd-tmp-"))
-            return bad(c, "renames from temporary outputs to listed outputs");
-    }
-    return 0;
+    for (int i = 0; rc == 0 && i < col->npending; i++)
+        if (wpd_coll_names_find(outs, m, col->pending[i].to) < 0 ||
+            !strstr(col->pending[i].from, ".wpd-tmp-"))
+            rc = bad(c, "renames from temporary outputs to listed outputs");
+    free(outs);
+    return rc;
 }
 
 int wpd_collection_parse(wpd_collection *col, const char *text, size_t len, const char *name,
