@@ -20,6 +20,7 @@ runs the cases).
 Every run: `wpd resample TILES --per-input DIR -n P% [OPTS]`. Figures on
 stdout as JSON (bench/ingest_figures.py says what they are)."""
 import argparse
+import hashlib
 import json
 import os
 import shutil
@@ -131,14 +132,20 @@ def quality(args):
         os.makedirs(one_dir)
         _, rone = night(tiles, list(tiles), one_dir, opts + spacing)
         nights = [[first], rest[:3], rest[3:6], rest[6:]]
-    given, reports = [], []
+    given, reports, hashes = [], [], {}
     for names in nights:
         given += names
         secs, r = night(tiles, given, coll_dir, opts + spacing)
+        changed = [t for t, h in hashes.items() if sha(os.path.join(coll_dir, t)) != h]
+        if changed:
+            sys.exit("ingest.py: night %d changed the outputs %s" % (len(reports) + 1, changed))
+        hashes.update({os.path.basename(tiles[t]): sha(os.path.join(
+            coll_dir, os.path.basename(tiles[t]))) for t in names})
         reports.append({"night": r["collection"]["night"], "seconds": secs,
                         "new_inputs": r["collection"]["new_inputs"],
                         "fixed_samples": r["collection"]["fixed_samples"],
                         "output_points": r["output_points"], "radius": r["radius"],
+                        "tiles": r["tiles"]["count"],
                         "peak_rss_mb": r["peak_rss_bytes"] / 1e6})
     coll = {t: os.path.join(coll_dir, os.path.basename(p)) for t, p in tiles.items()}
     one = {t: os.path.join(one_dir, os.path.basename(p)) for t, p in tiles.items()}
@@ -156,9 +163,15 @@ def quality(args):
                                               "seam_p1_ratio", "seam_close_pairs",
                                               "hausdorff_ratio", "local_cv_ratio")}
     f["nights"] = nights
+    f["old_outputs_unchanged"] = True  # checked after every night (sha256)
     f["night_reports"] = reports
     f["one_radius"] = rone["radius"]
     print(json.dumps(f, indent=1))
+
+
+def sha(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
 
 
 def ground_share(path):
@@ -183,9 +196,22 @@ def moved_copy(src, dst, dx, dy):
         f.write(b)
 
 
+def timed_night(tiles, given, folder, opts):
+    """One night: wall seconds, CPU seconds (user + system of the child:
+    what a loaded machine inflates least), its report."""
+    before = os.times()
+    secs, r = night(tiles, given, folder, opts)
+    after = os.times()
+    cpu = (after.children_user - before.children_user +
+           after.children_system - before.children_system)
+    return secs, cpu, r
+
+
 def timing(args):
     """Night 2 (3 tiles old) and night 4 (12 old), each one tile touching
-    two old ones, medians of args.repeat runs from a copy of the folder."""
+    two old ones: each run args.repeat times from a copy of the folder as
+    it was before it, the two alternated so that both see the same load;
+    medians."""
     work = os.path.abspath(args.work)
     os.makedirs(work, exist_ok=True)
     src = os.path.join(work, "one_tile.las")
@@ -203,28 +229,33 @@ def timing(args):
     coll = os.path.join(work, "coll")
     shutil.rmtree(coll, ignore_errors=True)
     os.makedirs(coll)
-    given, out = [], []
+    given, keep = [], {}
     for k, names in enumerate(nights):
+        if k in (1, 3):  # the folder as it is before the measured nights
+            keep[k] = (coll + ".before%d" % (k + 1), given + names)
+            shutil.rmtree(keep[k][0], ignore_errors=True)
+            shutil.copytree(coll, keep[k][0])
         given += names
-        if k in (1, 3):  # the measured nights: repeated from a copy
-            keep = coll + ".before"
-            shutil.rmtree(keep, ignore_errors=True)
-            shutil.copytree(coll, keep)
-            runs = []
-            for _ in range(args.repeat):
-                shutil.rmtree(coll)
-                shutil.copytree(keep, coll)
-                secs, r = night(tiles, given, coll, opts)
-                runs.append((secs, r["peak_rss_bytes"] / 1e6, r["collection"]["fixed_samples"],
-                             r["output_points"]))
-            out.append({"night": k + 1, "old_tiles": len(given) - len(names),
-                        "seconds": sorted(s for s, *_ in runs),
-                        "median_seconds": float(np.median([s for s, *_ in runs])),
-                        "peak_rss_mb": float(np.median([m for _, m, *_ in runs])),
-                        "fixed_samples": runs[0][2], "output_points": runs[0][3]})
-        else:
-            night(tiles, given, coll, opts)
+        night(tiles, given, coll, opts)
+    runs = {1: [], 3: []}
+    for _ in range(args.repeat):
+        for k in (1, 3):
+            shutil.rmtree(coll)
+            shutil.copytree(keep[k][0], coll)
+            secs, cpu, r = timed_night(tiles, keep[k][1], coll, opts)
+            runs[k].append((secs, cpu, r["peak_rss_bytes"] / 1e6,
+                            r["collection"]["fixed_samples"], r["output_points"]))
+    out = []
+    for k in (1, 3):
+        rs = runs[k]
+        out.append({"night": k + 1, "old_tiles": len(keep[k][1]) - len(nights[k]),
+                    "seconds": [x[0] for x in rs], "cpu_seconds": [x[1] for x in rs],
+                    "median_seconds": float(np.median([x[0] for x in rs])),
+                    "median_cpu_seconds": float(np.median([x[1] for x in rs])),
+                    "peak_rss_mb": float(np.median([x[2] for x in rs])),
+                    "fixed_samples": rs[0][3], "output_points": rs[0][4]})
     out.append({"time_ratio": out[1]["median_seconds"] / out[0]["median_seconds"],
+                "cpu_ratio": out[1]["median_cpu_seconds"] / out[0]["median_cpu_seconds"],
                 "rss_ratio": out[1]["peak_rss_mb"] / out[0]["peak_rss_mb"]})
     print(json.dumps(out, indent=1))
 
@@ -241,8 +272,10 @@ def main():
     ap.add_argument("--independent", action="store_true",
                     help="also each night as a cloud of its own (no collection)")
     ap.add_argument("--work", default="bench/out/ingest")
-    ap.add_argument("opts", nargs="*", help="more wpd resample options (after --)")
-    args = ap.parse_args()
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1:] if "--" in argv else []
+    args = ap.parse_args(argv[:len(argv) - len(extra) - (1 if extra else 0)])
+    args.opts = extra  # more wpd resample options, after --
     (quality if args.what == "quality" else timing)(args)
 
 
