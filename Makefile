@@ -172,8 +172,12 @@ FUZZ_LIB_OBJ    := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/%.o)
 # The spill codec is pure (no I/O, no threads): its two files and errors.
 FUZZ_CODEC_SRC  := src/spill/codec.c src/spill/planes.c src/common/error.c
 FUZZ_CODEC_OBJ  := $(FUZZ_CODEC_SRC:%.c=$(FUZZ_DIR)/%.o)
+# A collection's state parser (docs/ingest.md): the state, its JSON and errors.
+FUZZ_COLL_SRC   := src/resample/collection.c src/resample/collection_parse.c \
+                   src/common/error.c src/common/json.c src/common/fullio.c
+FUZZ_COLL_OBJ   := $(FUZZ_COLL_SRC:%.c=$(FUZZ_DIR)/%.o)
 FUZZ_TARGETS    := $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/fuzz_laz \
-                   $(FUZZ_DIR)/fuzz_spill_codec
+                   $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/fuzz_collection
 
 ASAN_DIR        := build/asan
 ASAN_SAN        := -fsanitize=address,undefined -fno-omit-frame-pointer \
@@ -208,18 +212,23 @@ $(FUZZ_DIR)/fuzz_laz: tests/fuzz/fuzz_reader.c tests/fuzz/drive.h $(FUZZ_LIB_OBJ
 $(FUZZ_DIR)/fuzz_spill_codec: tests/fuzz/fuzz_spill_codec.c $(FUZZ_CODEC_OBJ)
 	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_CODEC_OBJ) -lm
 
+$(FUZZ_DIR)/fuzz_collection: tests/fuzz/fuzz_collection.c $(FUZZ_COLL_OBJ)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -fsanitize=fuzzer -o $@ $< $(FUZZ_COLL_OBJ) -lm
+
 fuzz-build: fuzz-deps
 	@$(MAKE) --no-print-directory $(FUZZ_TARGETS)
 
 fuzz-seeds:
 	python3 tests/fuzz/make_seeds.py $(FUZZ_DATA) $(FUZZ_DIR)/seeds $(FUZZ_MAX_LEN)
 	python3 tests/fuzz/make_codec_seeds.py $(FUZZ_DIR)/seeds/codec
+	python3 tests/fuzz/make_collection_seeds.py $(FUZZ_DIR)/seeds/collection
 
 fuzz: fuzz-build fuzz-seeds
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_ply $(FUZZ_DIR)/seeds/ply $(FUZZ_DIR)/ply $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/las $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_laz $(FUZZ_DIR)/seeds/laz $(FUZZ_DIR)/laz $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/seeds/codec $(FUZZ_DIR)/codec $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_collection $(FUZZ_DIR)/seeds/collection $(FUZZ_DIR)/collection $(FUZZ_RUNS) $(FUZZ_MAX_LEN)
 
 # Fresh corpora and a fixed seed: the same executions on every CI run.
 fuzz-smoke: fuzz-build fuzz-seeds
@@ -228,6 +237,7 @@ fuzz-smoke: fuzz-build fuzz-seeds
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_las $(FUZZ_DIR)/seeds/las $(FUZZ_DIR)/smoke/las $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_laz $(FUZZ_DIR)/seeds/laz $(FUZZ_DIR)/smoke/laz $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_spill_codec $(FUZZ_DIR)/seeds/codec $(FUZZ_DIR)/smoke/codec $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
+	tests/fuzz/run.sh $(FUZZ_DIR)/fuzz_collection $(FUZZ_DIR)/seeds/collection $(FUZZ_DIR)/smoke/collection $(FUZZ_SMOKE_RUNS) $(FUZZ_MAX_LEN) 1
 
 $(ASAN_DIR)/%.o: %.c
 	@mkdir -p $(dir $@)

@@ -3,6 +3,7 @@
 #include "cli/class_options.h"
 #include "cli/commands.h"
 #include "cli/report.h"
+#include "cli/resample_collection.h"
 #include "cli/run_ranks.h"
 #include "resample/output.h"
 #include "resample/read.h"
@@ -37,6 +38,10 @@ typedef struct resample_options {
     size_t mem_bytes;         /* 0: default */
     int min_tiles;
     int skip_existing;        /* --per-input: skip inputs whose output is newer */
+    int append;               /* -o OUT --append: OUT is a collection (docs/ingest.md) */
+    int rebuild;              /* --rebuild: the collection from scratch */
+    double spacing;           /* --spacing D: the collection's radius, or 0 */
+    wpd_cli_collection *coll; /* --per-input or --append: the collection, else NULL */
     int quiet, verbose;
     int metrics;              /* quality summary (wpd metrics) of the result */
     int edge_label;           /* write the sharp labels as the field "edge" */
@@ -105,7 +110,7 @@ enum { OPT_LAMBDA = 256, OPT_VOXEL, OPT_ITER, OPT_NOSMOOTH, OPT_SHARP, OPT_SEED,
        OPT_THREADS, OPT_ASCII, OPT_FORCE, OPT_RADIUS_EST, OPT_SMOOTH_MODE,
        OPT_FREE_SURFACE, OPT_PER_INPUT, OPT_MEM, OPT_TMPDIR, OPT_MIN_TILES, OPT_REPORT,
        OPT_SKIP_EXISTING, OPT_METRICS, OPT_EDGE_LABEL, OPT_DROP_CLASS, OPT_KEEP_CLASS,
-       OPT_CLASS_COUNT, OPT_CLASS_FIELD, OPT_EVEN };
+       OPT_CLASS_COUNT, OPT_CLASS_FIELD, OPT_EVEN, OPT_APPEND, OPT_REBUILD, OPT_SPACING };
 
 /* The class options: 0, or -2 with the one-line error printed. */
 static int parse_class_option(int c, const char *arg, wpd_class_args *a)
@@ -152,6 +157,9 @@ static int parse_option(int c, const char *arg, resample_options *o)
     case OPT_TMPDIR: o->tmpdir = arg; return 0;
     case OPT_REPORT: o->report = arg; return 0;
     case OPT_SKIP_EXISTING: o->skip_existing = 1; return 0;
+    case OPT_APPEND: o->append = 1; return 0;
+    case OPT_REBUILD: o->rebuild = 1; return 0;
+    case OPT_SPACING: return parse_positive(arg, 1e-300, 1e300, &o->spacing);
     case OPT_METRICS: o->metrics = 1; return 0;
     case OPT_EDGE_LABEL: o->edge_label = 1; return 0;
     case OPT_DROP_CLASS: case OPT_KEEP_CLASS: case OPT_CLASS_COUNT:
@@ -166,6 +174,26 @@ static int parse_option(int c, const char *arg, resample_options *o)
         return 0;
     default: return -1;
     }
+}
+
+/* The collection's options (docs/ingest.md): 0, or -1 with the line
+ * printed. */
+static int check_collection_options(const resample_options *o)
+{
+    const char *bad = NULL;
+    if (o->append && !o->output)
+        bad = "--append goes with -o OUT";
+    else if ((o->rebuild || o->spacing) && !o->per_input && !o->append)
+        bad = "--rebuild and --spacing go with a collection: --per-input DIR or -o OUT --append";
+    else if (o->append && wpd_format_is_laz_name(o->output))
+        bad = "--append writes LAS or PLY: appending to LAZ would encode every old record "
+              "again (docs/ingest.md)";
+    else if (o->classes.ncounts && (o->per_input || o->append))
+        bad = "--class-count does not go with a collection (--per-input, --append): each "
+              "class group would need a radius of its own (docs/ingest.md)";
+    if (bad)
+        fprintf(stderr, "wpd resample: %s\n", bad);
+    return bad ? -1 : 0;
 }
 
 /* Fills o from argv; returns -1 (the error printed) on error, 1 for --help.
@@ -189,6 +217,8 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         {"per-input", required_argument, 0, OPT_PER_INPUT}, {"mem", required_argument, 0, OPT_MEM},
         {"tmpdir", required_argument, 0, OPT_TMPDIR}, {"report", required_argument, 0, OPT_REPORT},
         {"skip-existing", no_argument, 0, OPT_SKIP_EXISTING},
+        {"append", no_argument, 0, OPT_APPEND}, {"rebuild", no_argument, 0, OPT_REBUILD},
+        {"spacing", required_argument, 0, OPT_SPACING},
         {"metrics", no_argument, 0, OPT_METRICS},
         {"edge-label", no_argument, 0, OPT_EDGE_LABEL},
         {"drop-class", required_argument, 0, OPT_DROP_CLASS},
@@ -217,7 +247,7 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
             return -1;
         }
     }
-    if (optind >= argc || !o->count_text || !o->output == !o->per_input) {
+    if (optind >= argc || (!o->count_text && !o->spacing) || !o->output == !o->per_input) {
         fprintf(stderr, "wpd resample: need inputs, -n N and one of -o OUT or --per-input DIR\n");
         fputs(wpd_resample_usage, stderr);
         return -1;
@@ -228,6 +258,8 @@ static int parse_args(int argc, char **argv, resample_options *o, int *first_inp
         fprintf(stderr, "wpd resample: --skip-existing goes with --per-input\n");
         return -1;
     }
+    if (check_collection_options(o))
+        return -1;
     if (o->edge_label && !o->params.sharp) {
         fprintf(stderr, "wpd resample: --edge-label goes with --sharp (the labels come from "
                 "its detector)\n");
@@ -383,13 +415,22 @@ static int deliver(wpd_run_info *info, char **metrics_json, const wpd_selection 
     if (o->metrics && measure(info->inputs, info->ninputs, sel, o, metrics_json, err))
         return -1;
     info->metrics_json = *metrics_json;
+    /* A collection's night: its state recorded before the report, which
+     * shows it; the state file is the commit (resample/collection.h). */
+    if (o->coll && wpd_cli_collection_record(o->coll, info->run, info->classes, p->files,
+                                             p->nout, err))
+        return -1;
     if (o->report && wpd_report_write(o->report, info, &p->files[p->nout], err))
         return -1;
-    if (wpd_outfile_rename_all(p->files, p->nout + 1, err))
+    if (o->coll ? wpd_collection_commit(&o->coll->c, p->files, p->nout, &p->files[p->nout], err)
+                : wpd_outfile_rename_all(p->files, p->nout + 1, err))
         return -1;
     if (o->quiet || (!o->verbose && !isatty(STDOUT_FILENO)))
         return 0;
     print_summary(info, o);
+    if (o->coll)
+        wpd_cli_collection_print(o->coll, info->run->count, (unsigned long long)info->target,
+                                 o->count_text);
     if (*metrics_json)
         printf("  quality (wpd metrics --json): %s", *metrics_json);
     /* The files are in place and complete: a summary that is lost still
@@ -407,27 +448,75 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
     wpd_class_options co;
     if (wpd_class_args_resolve(&o->classes, cloud, &co, err))
         return -1;
-    char *end;
-    double percent = strtod(o->count_text, &end);
+    const char *text = o->count_text ? o->count_text : "0", *end;
+    double percent = strtod(text, (char **)&end);
     co.rest_count = ro->target;
     if (*end == '%')
         co.rest_percent = percent; /* parse_count checked it */
+    /* A collection's radius samples the group whatever -n says: never
+     * kept whole for a count (-n is then only compared with). */
+    if (ro->fixed_radius > 0)
+        co.rest_count = 1, co.rest_percent = -1;
     if (wpd_resample_by_class(cloud, &co, ro, o->quiet, cr, err))
         return -1;
     *res = cr->merged;
     memset(&cr->merged, 0, sizeof cr->merged);
     info->classes = cr;
-    info->target = cr->groups[0].target;
+    if (!(ro->fixed_radius > 0))
+        info->target = cr->groups[0].target;
     return 0;
 }
 
 /* The run; rank 0 (the writer) also writes the outputs and delivers them
  * once every rank has succeeded. */
+/* A collection's night (docs/ingest.md): which inputs are new (*nnew,
+ * moved to the front), printed when there is none. Every rank. Returns 0,
+ * or -1 with err set. */
+static int plan_night(char **inputs, int ninputs, resample_options *o, int *nnew,
+                      wpd_error *err)
+{
+    if (wpd_cli_collection_plan(o->coll, inputs, ninputs, o->write.overwrite, err))
+        return -1;
+    const wpd_night *n = &o->coll->night;
+    *nnew = n->nnew;
+    if (n->nnew == 0 && !o->quiet && wpd_par_rank(o->par) == 0)
+        printf("every input is in the collection %s already: nothing to do\n",
+               o->coll->c.label);
+    /* A later night replaces --append's OUT; --rebuild every output. */
+    if ((n->later && o->append) || o->rebuild)
+        o->write.overwrite = 1;
+    return 0;
+}
+
+/* The count -n asks for (a later night only compares with it; without -n,
+ * --spacing alone: every point). A first night of a collection needs a
+ * radius: not a copy of its inputs. */
+static int night_target(const resample_options *o, uint64_t count, uint64_t *target,
+                        wpd_error *err)
+{
+    *target = count;
+    if (o->count_text && (parse_count(o->count_text, count, target) || *target == 0))
+        return wpd_fail(err, WPD_E_USAGE, "-n %s: the point count must be a positive number or "
+                        "percentage", o->count_text);
+    if (o->coll && !o->coll->night.later && !o->spacing && *target >= count &&
+        !wpd_class_args_used(&o->classes))
+        return wpd_fail(err, WPD_E_USAGE, "%s: -n %s keeps every input point: a collection "
+                        "needs a spacing (give a smaller -n, or --spacing D)",
+                        o->coll->c.label, o->count_text);
+    return 0;
+}
+
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
     wpd_cloud *cloud = NULL;
     char buf[1024];
     const char *dir = spill_dir(o, buf, sizeof buf);
+    if (o->coll) {
+        int nnew = 0, rc = plan_night(inputs, ninputs, o, &nnew, err);
+        if (rc || nnew == 0)
+            return wpd_ranks_outcome(o->par, rc, err);
+        ninputs = nnew;
+    }
     if (wpd_output_check(inputs, ninputs, o->output, o->per_input, o->write.overwrite, err) ||
         !(cloud = wpd_read_open(inputs, ninputs, dir, err)))
         return wpd_ranks_outcome(o->par, -1, err);
@@ -446,13 +535,11 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_output_files pending = {0};
     char *metrics_json = NULL;
     wpd_run_info info = {.ninputs = ninputs, .inputs = inputs, .output = o->output,
-                         .per_input = o->per_input, .params = &o->params, .run = &res};
+                         .per_input = o->per_input, .params = &o->params, .run = &res,
+                         .collection = o->coll};
     double t0 = omp_get_wtime();
-    if (parse_count(o->count_text, wpd_cloud_count(cloud), &target) || target == 0) {
-        wpd_fail(err, WPD_E_USAGE, "-n %s: the point count must be a positive number or "
-                 "percentage", o->count_text);
+    if (night_target(o, wpd_cloud_count(cloud), &target, err))
         goto done;
-    }
     /* Every rank: with --per-input each may write some of the outputs. */
     if (wpd_output_files_open(&pending, cloud, o->per_input, err))
         goto done;
@@ -461,15 +548,19 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (wpd_ranks_same_budget(o->par, &o->mem_bytes, err))
         goto done;
     output_lattice(cloud, o, o->params.resolution);
-    if (target >= wpd_cloud_count(cloud) && !o->quiet && !wpd_class_args_used(&o->classes))
+    if (target >= wpd_cloud_count(cloud) && !o->quiet && !wpd_class_args_used(&o->classes) &&
+        !o->coll)
         fprintf(stderr, "wpd resample: notice: -n %llu >= %llu input points: copying the "
                 "input\n", (unsigned long long)target,
                 (unsigned long long)wpd_cloud_count(cloud));
     info.target = target;
     info.mem_bytes = o->mem_bytes;
     info.threads = o->params.threads > 0 ? o->params.threads : omp_get_max_threads();
-    wpd_resample_options ro = {target, o->mem_bytes, dir,
-                               o->min_tiles, o->params, &o->progress, o->par};
+    wpd_resample_options ro = {.target = target, .mem_bytes = o->mem_bytes, .tmpdir = dir,
+                               .min_tiles = o->min_tiles, .params = o->params,
+                               .progress = &o->progress, .par = o->par};
+    if (o->coll)
+        wpd_cli_collection_options(o->coll, &ro);
     rc = wpd_class_args_used(&o->classes)
              ? run_by_class(cloud, o, &ro, &res, &classes, &info, err)
              : wpd_resample_run(cloud, &ro, &res, err);
@@ -490,7 +581,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
                 "dropped\n", (unsigned long long)info.dropped);
     /* Passes stopped at their limit below n: repeated points are one sample at any radius. */
     if (rc == 0 && !classes.ngroups && res.count < target && target < res.input_points &&
-        !o->quiet)
+        !o->quiet && !(ro.fixed_radius > 0))
         fprintf(stderr, "wpd resample: warning: %zu points written, not the %llu asked for: "
                 "%d Poisson passes down to radius %g kept no more (repeated points?)\n",
                 res.count, (unsigned long long)target, res.passes, res.radius);
@@ -528,10 +619,11 @@ done:
 }
 
 /* Removes what runs killed outright (SIGKILL, power loss) left behind:
- * their spill, run, blob and record cache directories and temporary
- * outputs. Live runs' are
- * kept. */
-static void sweep_leftovers(const resample_options *o)
+ * their spill, run, blob and record cache directories and, with outputs,
+ * temporary outputs. Live runs' are kept. A collection's temporary
+ * outputs may be named by its committed state: only rank 0 sweeps them,
+ * after the recovery (resample/collection.h). */
+static void sweep_leftovers(const resample_options *o, int outputs)
 {
     char dir[1024];
     const char *base = spill_dir(o, dir, sizeof dir);
@@ -540,8 +632,23 @@ static void sweep_leftovers(const resample_options *o)
     wpd_tmpdir_sweep_stale(base, "wpd-blobs");
     wpd_tmpdir_sweep_stale(base, "wpd-cache");
     wpd_output_sweep_parts(base, o->output);
-    if (o->output)
+    if (o->output && outputs)
         wpd_outfile_sweep_stale(o->output);
+}
+
+/* The run with the output locked (rank 0: locked by the caller): a
+ * collection's unfinished night completed or rolled back first, then the
+ * leftovers swept. */
+static int locked_run(char **inputs, int ninputs, resample_options *o, wpd_error *err)
+{
+    int writer = wpd_par_rank(o->par) == 0;
+    if (o->coll && writer && wpd_cli_collection_recover(o->coll, o->quiet, err))
+        return wpd_ranks_outcome(o->par, -1, err);
+    sweep_leftovers(o, writer || !o->coll);
+    int rc = resample(inputs, ninputs, o, err);
+    if (o->coll && o->coll->marked)
+        wpd_collection_unmark(&o->coll->c);
+    return rc;
 }
 
 /* The command after its options are parsed. */
@@ -557,17 +664,26 @@ static int run_command(char **inputs, int ninputs, resample_options *o)
         return 0;
     }
     const char *target = o->output ? o->output : o->per_input;
-    sweep_leftovers(o);
+    wpd_cli_collection coll;
+    int writer = wpd_par_rank(o->par) == 0, lock = -1, rc;
+    if ((o->per_input || o->append) &&
+        wpd_cli_collection_init(&coll, o->per_input, o->append ? o->output : NULL, &o->params,
+                                &o->classes, o->spacing, o->rebuild, o->skip_existing, o->par,
+                                &err) == 0)
+        o->coll = &coll;
     /* Rank 0 alone takes the output lock; the others learn of its failure
      * in the run's first agreement. */
-    int writer = wpd_par_rank(o->par) == 0, lock = -1, rc;
-    if (writer && (lock = wpd_output_lock(target, &err)) < 0) {
+    if ((o->per_input || o->append) && !o->coll) {
+        rc = wpd_ranks_outcome(o->par, -1, &err);
+    } else if (writer && (lock = wpd_output_lock(target, &err)) < 0) {
         rc = wpd_ranks_outcome(o->par, -1, &err);
     } else {
-        rc = resample(inputs, ninputs, o, &err);
+        rc = locked_run(inputs, ninputs, o, &err);
         if (writer)
             wpd_output_unlock(lock, target);
     }
+    if (o->per_input || o->append)
+        wpd_cli_collection_free(&coll);
     if (rc == 0)
         return 0;
     return writer ? wpd_report_error("resample", &err) : (int)err.code;

@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "cli/resample_collection.h"
 #include "common/json.h"
 
 static void field_num(FILE *f, const char *key, double v, int comma)
@@ -156,6 +157,12 @@ static void write_body(FILE *f, const wpd_run_info *r)
     fprintf(f, "  \"ranks\": %d,\n", r->ranks);
     fprintf(f, "  \"exchanged_bytes\": %llu,\n", (unsigned long long)r->exchanged_bytes);
     fprintf(f, "  \"writers\": %d,\n", r->writers);
+    fputs("  \"collection\": ", f);
+    if (r->collection)
+        wpd_cli_collection_report(r->collection, f);
+    else
+        fputs("null", f);
+    fputs(",\n", f);
     fprintf(f, "  \"metrics\": %s}\n", r->metrics_json ? r->metrics_json : "null\n");
 }
 

@@ -33,6 +33,7 @@ typedef struct wpd_run_info {
     uint64_t exchanged_bytes;     /* payload the ranks handed each other (par.h) */
     int writers;                  /* ranks that wrote a share of the output */
     const char *metrics_json;     /* `wpd metrics --json` of the run, or NULL */
+    const struct wpd_cli_collection *collection; /* a collection's night, or NULL */
 } wpd_run_info;
 
 /* Writes info as one JSON object to a temporary file beside path,

@@ -10,8 +10,11 @@
  * "records" (the samples are in their runs, the records pass is about to
  * read), "write" (the temporary output exists; every command that writes a
  * file meets it), "per-input" (every --per-input output is complete under
- * its temporary name, none renamed yet). Without the variable it costs one
- * getenv per call. */
+ * its temporary name, none renamed yet), and a collection's commit
+ * (resample/collection.h): "commit" (the new state written beside the
+ * old one, not renamed) and "renames" (committed, the outputs not renamed;
+ * signals are held back there: only SIGKILL ends the wait). Without the
+ * variable it costs one getenv per call. */
 #ifndef WPD_TESTHOOK_H
 #define WPD_TESTHOOK_H
 

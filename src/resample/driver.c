@@ -21,6 +21,7 @@
 #include "resample/exact.h"
 #include "resample/smooth.h"
 #include "resample/merge.h"
+#include "resample/fixed.h"
 
 static uint32_t record_size_of(const wpd_cloud *cloud)
 {
@@ -69,6 +70,28 @@ static double estimate_radius(const wpd_run *run)
     wpd_radius_info ri;
     wpd_radius_from_counts(s->edge, s->voxels, s->nscales, run->opt->target, p->density, &ri);
     return ri.radius;
+}
+
+/* The count the plan sizes tiles for and the surface grids their cells
+ * by: the target, or with a fixed radius r the count the scan's voxels
+ * predict at r (radius.h: density x m(r) = n), so that -n, only a figure
+ * to compare with then, does not change the output. */
+static double plan_target(const wpd_run *run)
+{
+    if (!(run->opt->fixed_radius > 0))
+        return (double)run->opt->target;
+    double n = run->p->density * voxels_at(&run->scan, run->radius);
+    return fmin(fmax(n, 1), (double)run->scan.count);
+}
+
+size_t wpd_run_exact_target(const wpd_run *run)
+{
+    double f = run->opt->density_factor;
+    if (!(f > 0))
+        return run->opt->target;
+    size_t count = run->res->poisson_count;
+    double n = nearbyint(f * (double)count);
+    return n >= (double)count ? count : n < 1 ? 1 : (size_t)n;
 }
 
 static int copy_tile_boxes(wpd_run *run)
@@ -129,12 +152,13 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     /* The halo carries the input surface across borders for smoothing:
      * samples move less than r, and the refinement changes r by little. */
     run->halo = 2.5 * run->radius;
+    run->plan_target = plan_target(run);
     /* The input spacing is about 1.5 r sqrt(n / N); k = 13 neighbours lie
      * within ~1.7 spacings. */
     run->surface_dk = 2.5 * res->radius_estimate *
-                      sqrt((double)run->opt->target / (double)run->scan.count);
+                      sqrt(run->plan_target / (double)run->scan.count);
     uint64_t max_points = res->in_memory ? run->scan.count
-                                         : wpd_budget_max_tile_points(mem, run->opt->target,
+                                         : wpd_budget_max_tile_points(mem, (size_t)run->plan_target,
                                                                     run->scan.count, run->p->sharp);
     if (wpd_plan_tiles(&run->scan, max_points, res->in_memory ? 1 : run->opt->min_tiles,
                        run->halo, &run->plan, err))
@@ -144,7 +168,7 @@ static int scan_and_plan(wpd_run *run, wpd_error *err)
     res->largest_tile = run->plan.largest;
     if (copy_tile_boxes(run))
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    if (wpd_store_open(run, err) ||
+    if (wpd_store_open(run, err) || wpd_fixed_open(run, err) ||
         (wpd_par_ranks(run->opt->par) > 1 && wpd_run_assign_owners(run, err)))
         return -1;
     res->time.plan = omp_get_wtime() - t;
@@ -214,7 +238,9 @@ static int run_phases(wpd_run *run, wpd_error *err)
     wpd_test_stall("scan");
     if (scan_and_plan(run, err) || tile_phase(run, err))
         return -1;
-    if (run->opt->target >= run->scan.count)
+    /* A fixed radius (a collection's later night) samples at it whatever
+     * the count. */
+    if (run->opt->target >= run->scan.count && !(run->opt->fixed_radius > 0))
         return wpd_take_all_phase(run, err) || finish(run, err) ? -1 : 0;
     /* The phase over all samples (the exact count) and the smoothing
      * start with the previous phase's free pages handed back (heap.h): the
@@ -255,6 +281,10 @@ static int check_options(const wpd_resample_options *opt, wpd_error *err)
     if (p->iterations < 0 || p->even_iterations < 0)
         return wpd_fail(err, WPD_E_USAGE, "%d smoothing iterations, %d even steps", p->iterations,
                         p->even_iterations);
+    if (opt->fixed_radius < 0 || !isfinite(opt->fixed_radius) || opt->density_factor < 0 ||
+        !isfinite(opt->density_factor) || (opt->nfixed && !opt->fixed_xyz))
+        return wpd_fail(err, WPD_E_USAGE, "fixed radius %g, density factor %g: expected "
+                        "finite values >= 0", opt->fixed_radius, opt->density_factor);
     return 0;
 }
 
@@ -266,6 +296,12 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     if (check_options(opt, err))
         return -1;
     wpd_run run = {.opt = opt, .p = &opt->params, .cloud = cloud, .res = res};
+    if (opt->fixed_radius > 0) { /* one pass at it: no estimate, no refinement */
+        run.fixed_params = opt->params;
+        run.fixed_params.radius = opt->fixed_radius;
+        run.fixed_params.max_passes = 1;
+        run.p = &run.fixed_params;
+    }
     run.record_size = res->record_size = record_size_of(cloud);
     run.threads = opt->params.threads > 0 ? opt->params.threads : omp_get_max_threads();
     res->in_memory = wpd_resample_in_memory(cloud, opt);
@@ -273,6 +309,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
         return -1;
     int rc = run_phases(&run, err);
     wpd_store_close(&run);
+    wpd_fixed_close(&run);
     wpd_grid_free(&run.surface);
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);

@@ -15,6 +15,7 @@
 #include "method/eliminate.h"
 #include "resample/sample_store.h"
 #include "resample/ranks.h"
+#include "resample/fixed.h"
 
 static int half_of(const wpd_tile_samples *s, size_t i)
 {
@@ -79,7 +80,7 @@ static int cost_view_fill(const wpd_run *run, int t, const wpd_tile_samples *nea
     int rc = key && src && order && v->xyz && v->at && (v->half || !labelled) ? 0 : -1;
     if (rc == 0) {
         size_t k = 0;
-        for (int u = 0; u < run->plan.ntiles; u++) {
+        for (int u = 0; u <= run->plan.ntiles; u++) { /* near[ntiles]: fixed.h */
             const wpd_tile_samples *s = u == t ? own : &near[u];
             for (size_t i = 0; i < s->n; i++) {
                 key[k] = s->gid[i];
@@ -109,13 +110,16 @@ static int cost_view_build(const wpd_run *run, int t, double dist, int labelled,
                            wpd_error *err)
 {
     int ntiles = run->plan.ntiles;
-    wpd_tile_samples *near = calloc((size_t)ntiles, sizeof *near);
+    /* One more: earlier nights' samples (fixed.h), present but no tile's. */
+    wpd_tile_samples *near = calloc((size_t)ntiles + 1, sizeof *near);
     size_t others = 0;
     int rc = near ? near_samples(run, t, dist, near, &others, err)
                   : wpd_fail(err, WPD_E_MEMORY, "out of memory");
+    if (rc == 0 && (rc = wpd_fixed_near(run, t, dist, &near[ntiles], err)) == 0)
+        others += near[ntiles].n;
     if (rc == 0 && cost_view_fill(run, t, near, run->store[t].n + others, labelled, v))
         rc = wpd_fail(err, WPD_E_MEMORY, "out of memory for the exact count in tile %d", t);
-    for (int u = 0; near && u < ntiles; u++)
+    for (int u = 0; near && u <= ntiles; u++)
         wpd_samples_free(&near[u]);
     free(near);
     return rc;
@@ -551,7 +555,7 @@ static int sweep(exact_sweep *sw, size_t live, size_t target, uint64_t *hist, wp
 
 int wpd_exact_phase(wpd_run *run, wpd_error *err)
 {
-    size_t target = run->opt->target, live = wpd_run_store_count(run);
+    size_t target = wpd_run_exact_target(run), live = wpd_run_store_count(run);
     if (live <= target)
         return 0;
     exact_sweep sw = {.run = run, .tile = calloc((size_t)run->plan.ntiles, sizeof *sw.tile),

@@ -36,6 +36,7 @@
 #include "method/sharp.h"
 #include "resample/sample_store.h"
 #include "resample/ranks.h"
+#include "resample/fixed.h"
 
 enum { MAX_ROUNDS = 10000 }; /* each round settles a point: only a bug gets here */
 
@@ -264,6 +265,13 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
     if (rc == 0) {
         memset(at.store, 0, ntiles * sizeof *at.store);
         rc = fill_lists(run, t, v, ncand, nfixed, at.store);
+    }
+    /* Earlier nights' samples within conflict distance of a candidate. */
+    if (rc == 0 && wpd_fixed_append(run, t, run->halo + pc->r, &v->fixed, &v->fixed_edge,
+                                    &v->nfixed, err)) {
+        free(at.store);
+        free(at.unknown);
+        return -1;
     }
     free(at.store);
     free(at.unknown);
@@ -610,8 +618,8 @@ static int memory_tile(wpd_run *run, pass_ctx *pc, wpd_error *err)
         goto done;
     if (!pc->memo) {
         /* The surface grid, when the run built one over these points. */
-        wpd_poisson_input in = {d.xyz, d.gid, pc->memo_edge, NULL, d.n, NULL, 0, pc->r, p->seed,
-                                run->threads};
+        wpd_poisson_input in = {d.xyz, d.gid, pc->memo_edge, NULL, d.n, run->fixed.xyz,
+                                run->fixed.n, pc->r, p->seed, run->threads};
         pc->memo = run->surface.n == d.n && d.n ? wpd_poisson_prepare_on(&in, &run->surface, err)
                                                 : wpd_poisson_prepare(&in, err);
         if (!pc->memo)

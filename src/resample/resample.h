@@ -51,6 +51,18 @@ typedef struct wpd_resample_options {
     const wpd_par *par;       /* the ranks of an MPI run (par/par.h), or NULL: one
                                  process. Every rank runs the same run; the ranks
                                  share the scan's reading (docs/scale-out.md) */
+    /* A collection's later night (docs/ingest.md): the radius is given, the
+     * samples of earlier nights within reach are fixed, and density wins
+     * over the count. Zeros: an ordinary run. */
+    double fixed_radius;      /* > 0: one Poisson pass at this radius: no estimate,
+                                 no refinement, no copying of a small input */
+    double density_factor;    /* > 0: the exact count keeps round(f x the Poisson
+                                 pass's samples) (at most all of them), not target */
+    const double *fixed_xyz;  /* [3 nfixed] absolute coordinates: samples the run
+                                 keeps clear of and counts as present (the Poisson
+                                 pass's fixed points, the exact count's coverage and
+                                 crowding, smoothing's context) but never writes */
+    size_t nfixed;
 } wpd_resample_options;
 
 /* Wall time of each phase, seconds. */

@@ -28,9 +28,23 @@ typedef struct wpd_tile_samples {
     uint8_t *edge;            /* sharp-feature label, or NULL without --sharp */
 } wpd_tile_samples;
 
+/* Samples of earlier runs the run keeps (resample.h, fixed_xyz), in the
+ * frame, with the ones near each tile listed (fixed.c). */
+typedef struct wpd_fixed {
+    size_t n;
+    double *xyz;              /* [3n] frame coordinates */
+    uint32_t **of_tile;       /* [ntiles] the samples within 2.25 halos of its box */
+    size_t *nof_tile;
+} wpd_fixed;
+
 typedef struct wpd_run {
     const wpd_resample_options *opt;
     const wpd_params *p;
+    wpd_params fixed_params;  /* opt->params with the fixed radius (p points here) */
+    wpd_fixed fixed;          /* earlier runs' samples (none: n = 0) */
+    double plan_target;       /* the count the plan and the surface grids are sized
+                                 for: the target, or with a fixed radius the count
+                                 the scan's voxels predict at it */
     wpd_cloud *cloud;
     uint32_t record_size;
     int threads;
@@ -98,5 +112,9 @@ int wpd_run_each_tile_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
  * failure in err. */
 int wpd_run_tiles_any_order_shared(wpd_run *run, const char *phase, wpd_tile_fn fn,
                                    const wpd_tile_share *extra, void *arg, wpd_error *err);
+
+/* The count the exact count cuts down to: the target, or with a density
+ * factor f round(f x the Poisson pass's samples) (driver.c). */
+size_t wpd_run_exact_target(const wpd_run *run);
 
 #endif

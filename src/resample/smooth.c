@@ -19,6 +19,7 @@
 #include "core/knn.h"
 #include "method/smooth.h"
 #include "resample/sample_store.h"
+#include "resample/fixed.h"
 
 static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -43,7 +44,8 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     if (surface == &own &&
         wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
         goto done;
-    if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err))
+    if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err) ||
+        wpd_fixed_append(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err)) /* earlier nights' */
         goto done;
     wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, ctx_edge, nctx,
                            surface, run->surface_dk, p->k, p->iterations, r, threads,

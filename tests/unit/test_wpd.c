@@ -301,7 +301,8 @@ static int run_tiled(const scan *s, size_t target, const wpd_params *p, int min_
     const char *paths[1] = {path};
     wpd_cloud *cloud = wpd_cloud_open(paths, 1, &err);
     /* The result's runs outlive the directory: they go to the test's own. */
-    wpd_resample_options o = {target, (size_t)1 << 30, test_tmp_dir(), min_tiles, *p, NULL, NULL};
+    wpd_resample_options o = {.target = target, .mem_bytes = (size_t)1 << 30,
+                              .tmpdir = test_tmp_dir(), .min_tiles = min_tiles, .params = *p};
     int rc = cloud ? wpd_resample_run(cloud, &o, r, &err) : -1;
     if (rc < 0)
         fprintf(stderr, "  wpd_resample_run: %s\n", err.msg);
