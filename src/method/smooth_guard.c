@@ -2,6 +2,7 @@
 #include "method/smooth_guard.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -78,7 +79,7 @@ int wpd_spacing_allows(const wpd_spacing_guard *g, const wpd_spacing_near *near,
 
 /* Owner of a point when there is no sample at all (sample indices stay
  * below it: a block holds fewer than 2^31 samples). */
-#define NO_OWNER (WPD_COVER_KEEP - 1)
+#define NO_OWNER 0x7fffffffu
 
 /* Nearest sample of one input point x (ties to the lower index, as wpd_knn
  * orders them) into *owner and B(x) into *bound, given d2/id, its best
@@ -294,49 +295,80 @@ static int trusted(const wpd_cover *c, const wpd_spacing_guard *g, uint32_t i, d
 
 /* Whether input point s needs a keeper this iteration: its owner, or the
  * nearer of its two nearest samples, may be trusted to keep it within its
- * bound (trusted). Updates owner[s]. */
-static void look_after(wpd_cover *c, const wpd_spacing_guard *g, const double *pos, size_t s)
+ * bound (trusted). Updates owner[s] (written only when it changes: most
+ * points keep their owner, and a store to every point would dirty the
+ * whole array each step). Returns the sample that must keep s, or
+ * NO_OWNER when one is trusted to. */
+static uint32_t look_after(wpd_cover *c, const wpd_spacing_guard *g, const double *pos,
+                           size_t s)
 {
-    uint32_t i = c->owner[s] & ~WPD_COVER_KEEP;
-    if (i == NO_OWNER)
-        return;
-    c->owner[s] = i;
+    uint32_t i = c->owner[s];
     /* An owner that stays (cap 0, or a context sample) is trusted without
      * a look at the point: it lies within B(x) of x (the invariant). Most
      * samples stay in a step - in vegetation, and where no move pays -
      * and this spares reading the point and its owner. */
-    if (i >= c->n || g->cap[i] <= 0)
-        return;
+    if (i == NO_OWNER || i >= c->n || g->cap[i] <= 0)
+        return NO_OWNER;
     const double *x = c->surface->xyz + 3 * s;
     double b = c->bound[s];
     const double *p = pos + 3 * (size_t)i;
     double dx = p[0] - x[0], dy = p[1] - x[1], dz = p[2] - x[2];
     if (trusted(c, g, i, sqrt(dx * dx + dy * dy + dz * dz), x, b))
-        return;
+        return NO_OWNER;
     uint32_t nb[2];
     double d2[2];
     int got = wpd_knn(g->grid, x, 2, WPD_NO_SELF, INFINITY, b, nb, d2);
     for (int j = 0; j < got; j++)
         if (trusted(c, g, nb[j], sqrt(d2[j]), x, b)) {
             c->owner[s] = nb[j];
-            return;
+            return NO_OWNER;
         }
     /* The nearest is within the bound (the invariant) and keeps it; a
      * context sample, which stays, only fails the test above by rounding. */
-    if (got > 0)
-        c->owner[s] = nb[0] < c->n ? nb[0] | WPD_COVER_KEEP : nb[0];
+    if (got == 0)
+        return NO_OWNER;
+    c->owner[s] = nb[0];
+    return nb[0] < c->n ? nb[0] : NO_OWNER;
 }
 
-/* The points each sample keeps, in slot order (whatever the threads). */
-static int group_kept(wpd_cover *c)
+/* One thread's points that need a keeper: (keeper, slot) pairs. */
+typedef struct kept_list {
+    uint32_t *pair;
+    size_t n, cap;
+    int failed;
+} kept_list;
+
+static void kept_add(kept_list *l, uint32_t keeper, uint32_t slot)
 {
-    size_t n = c->n, npts = c->surface->n, m = 0;
-    memset(c->first, 0, (n + 2) * sizeof *c->first);
-    for (size_t s = 0; s < npts; s++)
-        if (c->owner[s] & WPD_COVER_KEEP) {
-            c->first[(c->owner[s] & ~WPD_COVER_KEEP) + 2]++;
-            m++;
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 4096;
+        uint32_t *grown = realloc(l->pair, 2 * cap * sizeof *grown);
+        if (!grown) {
+            l->failed = 1;
+            return;
         }
+        l->pair = grown;
+        l->cap = cap;
+    }
+    l->pair[2 * l->n] = keeper;
+    l->pair[2 * l->n + 1] = slot;
+    l->n++;
+}
+
+/* The points each sample keeps, from the threads' lists, grouped by
+ * keeper: a counting sort over the kept points alone, not over every
+ * input point. Within a keeper the points come in no fixed order; what
+ * reads them (wpd_cover_limit, wpd_cover_holds) takes a minimum or a
+ * conjunction, so the order cannot change a result. */
+static int group_kept(wpd_cover *c, const kept_list *lists, int nlists)
+{
+    size_t n = c->n, m = 0;
+    memset(c->first, 0, (n + 2) * sizeof *c->first);
+    for (int t = 0; t < nlists; t++) {
+        m += lists[t].n;
+        for (size_t k = 0; k < lists[t].n; k++)
+            c->first[lists[t].pair[2 * k] + 2]++;
+    }
     for (size_t o = 0; o < n; o++)
         c->first[o + 2] += c->first[o + 1];
     if (m > c->cap) {
@@ -347,19 +379,39 @@ static int group_kept(wpd_cover *c)
         c->cap = m;
     }
     /* first[o + 1] runs as the fill cursor of o; it ends as o's end. */
-    for (size_t s = 0; s < npts; s++)
-        if (c->owner[s] & WPD_COVER_KEEP)
-            c->slot[c->first[(c->owner[s] & ~WPD_COVER_KEEP) + 1]++] = (uint32_t)s;
+    for (int t = 0; t < nlists; t++)
+        for (size_t k = 0; k < lists[t].n; k++)
+            c->slot[c->first[lists[t].pair[2 * k] + 1]++] = lists[t].pair[2 * k + 1];
     return 0;
 }
 
 int wpd_cover_update(wpd_cover *c, const wpd_spacing_guard *guard, const double *pos,
                      int threads, wpd_error *err)
 {
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4096)
-    for (size_t s = 0; s < c->surface->n; s++)
-        look_after(c, guard, pos, s);
-    if (group_kept(c))
+    kept_list *lists = calloc((size_t)(threads > 0 ? threads : 1), sizeof *lists);
+    int nlists = 0, failed = !lists;
+    if (lists) {
+#pragma omp parallel num_threads(threads)
+        {
+            kept_list *mine = lists + omp_get_thread_num();
+#pragma omp single
+            nlists = omp_get_num_threads();
+#pragma omp for schedule(dynamic, 4096)
+            for (size_t s = 0; s < c->surface->n; s++) {
+                uint32_t keeper = look_after(c, guard, pos, s);
+                if (keeper != NO_OWNER)
+                    kept_add(mine, keeper, (uint32_t)s);
+            }
+        }
+        for (int t = 0; t < nlists; t++)
+            failed |= lists[t].failed;
+        if (!failed)
+            failed = group_kept(c, lists, nlists) < 0;
+        for (int t = 0; t < nlists; t++)
+            free(lists[t].pair);
+        free(lists);
+    }
+    if (failed)
         return wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu input points",
                         c->surface->n);
     return 0;

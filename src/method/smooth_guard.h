@@ -110,14 +110,12 @@ typedef struct wpd_cover {
     size_t n;                /* samples; positions from n on are context samples */
     float *bound;            /* [surface->n] B(x), rounded up */
     uint32_t *owner;         /* [surface->n] a sample within B(x) of x (the nearest when
-                                last looked up), WPD_COVER_KEEP set while in its care */
+                                last looked up) */
     uint32_t *first;         /* [n + 2] the points sample o keeps this iteration are
-                                slot[first[o] .. first[o + 1] - 1] */
+                                slot[first[o] .. first[o + 1] - 1], in no fixed order */
     uint32_t *slot;
     size_t cap;              /* room in slot */
 } wpd_cover;
-
-#define WPD_COVER_KEEP 0x80000000u
 
 /* Bounds and first owners of the surface's points among the samples
  * start[0..n) (order space) and the context samples start[n..n+nctx).

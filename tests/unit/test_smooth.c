@@ -248,10 +248,15 @@ static int keeper_with_ends(const double pos[6], const double ends[24], const ui
     wpd_step_ends e = {ends, count, 4};
     wpd_spacing_guard g = {&samples, pos, 2, cap, NULL, 1, 0, 2, with_ends ? &e : NULL};
     CHECK(wpd_cover_update(&cover, &g, pos, 1, &err) == 0);
-    *owner = cover.owner[0] & ~WPD_COVER_KEEP;
-    int keeper = cover.owner[0] & WPD_COVER_KEEP ? (int)*owner : -1;
-    for (int i = 0; i < 2; i++) /* the slot lists agree with the flag */
-        CHECK((uint32_t)(cover.first[i + 1] - cover.first[i]) == (keeper == i));
+    *owner = cover.owner[0];
+    int keeper = -1;
+    for (int i = 0; i < 2; i++) /* at most one keeper, holding the one point */
+        if (cover.first[i + 1] > cover.first[i]) {
+            CHECK(keeper == -1 && cover.first[i + 1] - cover.first[i] == 1 &&
+                  cover.slot[cover.first[i]] == 0);
+            keeper = i;
+        }
+    CHECK(keeper == -1 || (uint32_t)keeper == *owner); /* the keeper is the owner */
     wpd_cover_free(&cover);
     wpd_grid_free(&surface);
     wpd_grid_free(&samples);
