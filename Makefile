@@ -244,6 +244,7 @@ $(ASAN_DIR)/%.o: %.c
 	$(CC) $(CFLAGS) $(ASAN_SAN) -MMD -MP -c -o $@ $<
 
 $(ASAN_DIR)/libwpd.a: $(ASAN_LIB_OBJ)
+	rm -f $@
 	ar rcs $@ $^
 
 $(ASAN_DIR)/wpd: $(ASAN_MAIN_OBJ) $(ASAN_DIR)/libwpd.a
