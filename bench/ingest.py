@@ -50,22 +50,14 @@ def cut_box(src, dst, x0, x1, y0, y1):
     header's counts and bounds made true (as tests/e2e/harness.cut_las)."""
     with open(src, "rb") as f:
         blob = f.read()
-    hs, off = struct.unpack_from("<HI", blob, 94)
-    pdrf, reclen, legacy = struct.unpack_from("<BHI", blob, 104)
-    count = legacy
-    if blob[25] >= 4 and hs >= 375:
-        count = struct.unpack_from("<Q", blob, 247)[0] or legacy
-    scale = np.array(struct.unpack_from("<3d", blob, 131))
-    shift = np.array(struct.unpack_from("<3d", blob, 155))
-    rec = np.frombuffer(blob, np.uint8, count * reclen, off).reshape(count, reclen)
-    xyz = rec[:, :12].copy().view("<i4").reshape(count, 3) * scale + shift
+    off, pdrf, rec, xyz = ingest_figures.las_records(blob)
     keep = (xyz[:, 0] >= x0) & (xyz[:, 0] < x1) & (xyz[:, 1] >= y0) & (xyz[:, 1] < y1)
     rec, xyz = rec[keep], xyz[keep]
     head = bytearray(blob[:off])
     n = len(rec)
     returns = rec[:, 14] & (0x0F if pdrf >= 6 else 0x07)
     by_return = [int(np.count_nonzero(returns == k)) for k in range(1, 16)]
-    if blob[25] >= 4 and hs >= 375:
+    if blob[25] >= 4 and struct.unpack_from("<H", blob, 94)[0] >= 375:
         struct.pack_into("<Q15Q", head, 247, n, *by_return)
     ok = pdrf < 6
     struct.pack_into("<I5I", head, 107, n if ok else 0, *(by_return[:5] if ok else [0] * 5))

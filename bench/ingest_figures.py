@@ -28,18 +28,23 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 
+def las_records(blob):
+    """A LAS file's bytes as (header size with VLRs, point format, records
+    as an (n, record length) uint8 array, coordinates as an (n, 3) array)."""
+    hs, off = struct.unpack_from("<HI", blob, 94)
+    pdrf, reclen, legacy = struct.unpack_from("<BHI", blob, 104)
+    count = legacy
+    if blob[25] >= 4 and hs >= 375:
+        count = struct.unpack_from("<Q", blob, 247)[0] or legacy
+    scale = np.array(struct.unpack_from("<3d", blob, 131))
+    shift = np.array(struct.unpack_from("<3d", blob, 155))
+    rec = np.frombuffer(blob, np.uint8, count * reclen, off).reshape(count, reclen)
+    return off, pdrf, rec, rec[:, :12].copy().view("<i4").reshape(count, 3) * scale + shift
+
+
 def las_xyz(path):
     with open(path, "rb") as f:
-        b = f.read()
-    hs, off = struct.unpack_from("<HI", b, 94)
-    reclen, legacy = struct.unpack_from("<HI", b, 105)
-    count = legacy
-    if b[25] >= 4 and hs >= 375:
-        count = struct.unpack_from("<Q", b, 247)[0] or legacy
-    scale = np.array(struct.unpack_from("<3d", b, 131))
-    shift = np.array(struct.unpack_from("<3d", b, 155))
-    rec = np.frombuffer(b, np.uint8, count * reclen, off).reshape(count, reclen)
-    return rec[:, :12].copy().view("<i4").reshape(count, 3) * scale + shift
+        return las_records(f.read())[3]
 
 
 def las_box(path):

@@ -112,16 +112,28 @@ static int check_outputs(const wpd_collection *c, wpd_error *err)
     return 0;
 }
 
+/* The file names of inputs[0..n), sorted (each with its place among the
+ * inputs), in a new array; NULL with err set when out of memory. */
+static wpd_coll_name *sorted_names(char *const *inputs, int n, wpd_error *err)
+{
+    wpd_coll_name *names = malloc((size_t)(n > 0 ? n : 1) * sizeof *names);
+    if (!names) {
+        wpd_fail(err, WPD_E_MEMORY, "out of memory");
+        return NULL;
+    }
+    for (int i = 0; i < n; i++)
+        names[i] = (wpd_coll_name){name_of(inputs[i]), i};
+    wpd_coll_names_sort(names, n);
+    return names;
+}
+
 /* --rebuild replaces every output: each input of the state must be given,
  * or its output would stay beside a state that no longer knows it. */
 static int check_rebuild(const wpd_collection *c, char *const *inputs, int n, wpd_error *err)
 {
-    wpd_coll_name *given = malloc((size_t)(n > 0 ? n : 1) * sizeof *given);
+    wpd_coll_name *given = sorted_names(inputs, n, err);
     if (!given)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    for (int j = 0; j < n; j++)
-        given[j] = (wpd_coll_name){name_of(inputs[j]), j};
-    wpd_coll_names_sort(given, n);
+        return -1;
     int rc = 0;
     for (int i = 0; rc == 0 && i < c->ninputs; i++)
         if (wpd_coll_names_find(given, n, c->inputs[i].name) < 0)
@@ -136,12 +148,9 @@ static int check_rebuild(const wpd_collection *c, char *const *inputs, int n, wp
 /* Two inputs of one file name (a collection tells its inputs by name). */
 static int twice(char *const *inputs, int n, wpd_error *err)
 {
-    wpd_coll_name *names = malloc((size_t)(n > 0 ? n : 1) * sizeof *names);
+    wpd_coll_name *names = sorted_names(inputs, n, err);
     if (!names)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory");
-    for (int i = 0; i < n; i++)
-        names[i] = (wpd_coll_name){name_of(inputs[i]), i};
-    wpd_coll_names_sort(names, n);
+        return -1;
     int rc = 0;
     for (int i = 1; rc == 0 && i < n; i++)
         if (!strcmp(names[i - 1].name, names[i].name))
