@@ -388,20 +388,24 @@ static int group_kept(wpd_cover *c, const kept_list *lists, int nlists)
 int wpd_cover_update(wpd_cover *c, const wpd_spacing_guard *guard, const double *pos,
                      int threads, wpd_error *err)
 {
-    kept_list *lists = calloc((size_t)(threads > 0 ? threads : 1), sizeof *lists);
+    int team = threads > 0 ? threads : omp_get_max_threads();
+    kept_list *lists = calloc((size_t)team, sizeof *lists);
     int nlists = 0, failed = !lists;
     if (lists) {
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(team)
         {
-            kept_list *mine = lists + omp_get_thread_num();
+            /* Filled on the thread's own stack, stored once at the end:
+             * neighbouring entries of lists[] share a cache line. */
+            kept_list mine = {0};
 #pragma omp single
             nlists = omp_get_num_threads();
 #pragma omp for schedule(dynamic, 4096)
             for (size_t s = 0; s < c->surface->n; s++) {
                 uint32_t keeper = look_after(c, guard, pos, s);
                 if (keeper != NO_OWNER)
-                    kept_add(mine, keeper, (uint32_t)s);
+                    kept_add(&mine, keeper, (uint32_t)s);
             }
+            lists[omp_get_thread_num()] = mine;
         }
         for (int t = 0; t < nlists; t++)
             failed |= lists[t].failed;

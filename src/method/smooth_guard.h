@@ -127,7 +127,8 @@ void wpd_cover_free(wpd_cover *c);
 /* Before an iteration's moves: which sample keeps which input point, from
  * the positions pos (n samples, then context samples), a grid over them,
  * every sample's cap (guard->cap) and, where given, its possible ends
- * (guard->ends). Returns 0, or -1 with err set. */
+ * (guard->ends), on `threads` threads (<= 0: OpenMP's default). The
+ * result does not depend on the threads. Returns 0, or -1 with err set. */
 int wpd_cover_update(wpd_cover *c, const wpd_spacing_guard *guard, const double *pos,
                      int threads, wpd_error *err);
 
