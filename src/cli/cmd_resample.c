@@ -448,8 +448,8 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
     wpd_class_options co;
     if (wpd_class_args_resolve(&o->classes, cloud, &co, err))
         return -1;
-    const char *text = o->count_text ? o->count_text : "0", *end;
-    double percent = strtod(text, (char **)&end);
+    char *end;
+    double percent = strtod(o->count_text ? o->count_text : "0", &end);
     co.rest_count = ro->target;
     if (*end == '%')
         co.rest_percent = percent; /* parse_count checked it */
@@ -467,8 +467,6 @@ static int run_by_class(wpd_cloud *cloud, const resample_options *o,
     return 0;
 }
 
-/* The run; rank 0 (the writer) also writes the outputs and delivers them
- * once every rank has succeeded. */
 /* A collection's night (docs/ingest.md): which inputs are new (*nnew,
  * moved to the front), printed when there is none. Every rank. Returns 0,
  * or -1 with err set. */
@@ -506,6 +504,8 @@ static int night_target(const resample_options *o, uint64_t count, uint64_t *tar
     return 0;
 }
 
+/* The run; rank 0 (the writer) also writes the outputs and delivers them
+ * once every rank has succeeded. */
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
 {
     wpd_cloud *cloud = NULL;

@@ -57,6 +57,12 @@ int wpd_cli_collection_recover(wpd_cli_collection *cc, int quiet, wpd_error *err
     return 0;
 }
 
+/* --append's OUT, as a path. */
+static void append_path(const wpd_cli_collection *cc, char *out, size_t size)
+{
+    snprintf(out, size, "%s/%s", cc->c.dir, cc->c.append);
+}
+
 int wpd_cli_collection_plan(wpd_cli_collection *cc, char **inputs, int ninputs, int overwrite,
                             wpd_error *err)
 {
@@ -67,7 +73,7 @@ int wpd_cli_collection_plan(wpd_cli_collection *cc, char **inputs, int ninputs, 
         return 0;
     struct stat st;
     char out[1400];
-    snprintf(out, sizeof out, "%s/%s", cc->c.dir, cc->c.append);
+    append_path(cc, out, sizeof out);
     int exists = stat(out, &st) == 0;
     if (!cc->night.later && exists && !overwrite && !cc->req.rebuild)
         return wpd_fail(err, WPD_E_USAGE, "%s: exists but is no collection (no %s): "
@@ -94,7 +100,7 @@ static int append_night(wpd_cli_collection *cc, wpd_outfile *files, uint64_t *fi
 {
     char out[1400];
     uint64_t added = 0;
-    snprintf(out, sizeof out, "%s/%s", cc->c.dir, cc->c.append);
+    append_path(cc, out, sizeof out);
     wpd_outfile joined;
     if (wpd_outfile_open(&joined, files[0].final_path, 1, err))
         return -1;
