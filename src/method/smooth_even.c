@@ -8,10 +8,6 @@
 
 #include "core/knn.h"
 
-/* Input points a sample may move onto: the nearest within its reach. At
- * 10 % of the input a reach of r/4 holds one or two; at 1 % about 20. */
-enum { EVEN_CANDIDATES = 24 };
-
 static double dist(const double *a, const double *b)
 {
     double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
@@ -157,8 +153,8 @@ int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t 
 {
     const double *p = v->prev + 3 * o;
     const uint32_t *l = v->nb + o * (size_t)v->k;
-    uint32_t cand[EVEN_CANDIDATES];
-    int got = wpd_knn_slots(surface, p, EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, lim->reach,
+    uint32_t cand[WPD_EVEN_CANDIDATES];
+    int got = wpd_knn_slots(surface, p, WPD_EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, lim->reach,
                             cand, NULL);
     if (got == 0)
         return 0;

@@ -58,17 +58,28 @@ typedef struct wpd_even_limits {
     double wander;
 } wpd_even_limits;
 
+/* Input points a sample may move onto: the nearest within its reach. At
+ * 10 % of the input the reach (0.35 r) holds one or two, at 1 % about 20.
+ * The 8 nearest rather than all of them: a Jacobi step onto the farthest
+ * points of the reach overshoots, so the nearer ones win most sums anyway.
+ * Against 24 (bench/quality_check.py, seeds 0-3): the same 18, 15, 17, 17
+ * cases; NC 3 x 3 to 1 % (20 M points) local CV 0.0750 -> 0.0722, Voronoi
+ * CV 0.3327 -> 0.3284, the smoothing 0.77x the time; NC Raleigh to 1 %
+ * 0.0746 -> 0.0717 and 0.3441 -> 0.3372. 6 candidates lost cases (17, 15,
+ * 17, 16). docs/algorithm.md section 4. */
+#define WPD_EVEN_CANDIDATES 8
+
 /* Input points a sample may move onto, best first, when the guards
  * refuse the best. */
 #define WPD_EVEN_TRIES 4
 
-/* The input points of surface within reach of sample o (at most the 24
- * nearest) that lower sum (m_s - t)^2 below its value where o stands, over
- * o and its listed neighbours s that are samples, with t the mean of their
- * spacings at prev and the neighbours' lists as at prev but for o's
- * position. Writes the grid slots of the WPD_EVEN_TRIES best to slot[],
- * lowest sum first (ties: the nearer point), and returns how many (0:
- * no input point lowers it). */
+/* The input points of surface within reach of sample o (at most the
+ * WPD_EVEN_CANDIDATES nearest) that lower sum (m_s - t)^2 below its value
+ * where o stands, over o and its listed neighbours s that are samples,
+ * with t the mean of their spacings at prev and the neighbours' lists as
+ * at prev but for o's position. Writes the grid slots of the
+ * WPD_EVEN_TRIES best to slot[], lowest sum first (ties: the nearer
+ * point), and returns how many (0: no input point lowers it). */
 int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t o,
                         const wpd_even_limits *lim, uint32_t slot[WPD_EVEN_TRIES]);
 

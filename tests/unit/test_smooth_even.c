@@ -85,7 +85,7 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
      * lists by brute force, input points around; for every sample the
      * step is checked against every candidate's sum evaluated literally. */
     uint64_t seed = 11;
-    int checked = 0, moved = 0;
+    int checked = 0, moved = 0, capped = 0;
     for (int trial = 0; trial < 20; trial++) {
         double pos[3 * (N + NCTX)], inp[3 * INPUT], spacing[N];
         wpd_even_nearest nearest[N];
@@ -138,17 +138,28 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
             t /= nt;
             double stay = 0, order[INPUT];
             ranked better[INPUT];
-            int nbetter = 0, candidates = 0;
-            for (int c = 0; c < INPUT; c++) {
+            int nbetter = 0;
+            for (int c = 0; c < INPUT; c++)
                 order[c] = dist(inp + 3 * c, pos + 3 * o);
-                candidates += order[c] <= reach;
+            /* The literal sums over the WPD_EVEN_CANDIDATES input points
+             * nearest to the sample within reach: the candidates. */
+            uint8_t candidate[INPUT] = {0};
+            for (int taken = 0; taken < WPD_EVEN_CANDIDATES; taken++) {
+                int next = -1;
+                for (int c = 0; c < INPUT; c++)
+                    if (!candidate[c] && order[c] <= reach && (next < 0 || order[c] < order[next]))
+                        next = c;
+                if (next < 0)
+                    break;
+                candidate[next] = 1;
             }
-            /* Literal evaluation only where all candidates are considered. */
-            if (candidates > 24)
-                continue;
+            int within = 0;
+            for (int c = 0; c < INPUT; c++)
+                within += order[c] <= reach;
+            capped += within > WPD_EVEN_CANDIDATES;
             for (int c = -1; c < INPUT; c++) {
                 const double *q = c < 0 ? pos + 3 * o : inp + 3 * c;
-                if (c >= 0 && (order[c] > reach || dist(q, start) > 0.5))
+                if (c >= 0 && (!candidate[c] || dist(q, start) > 0.5))
                     continue;
                 double d[K], e;
                 int near = 0;
@@ -185,6 +196,10 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
     }
     CHECK_MSG(checked > 500 && moved > checked / 10 && moved < checked,
               "%d checked, %d with a point to move onto", checked, moved);
+    /* Some samples have more input points within reach than candidates:
+     * the cap is exercised. */
+    CHECK_MSG(capped > checked / 10 && capped < checked, "%d of %d samples capped", capped,
+              checked);
 }
 
 /* CV of the samples' mean distance to their 6 nearest (brute force). */
