@@ -50,6 +50,8 @@ typedef struct frames {
     double *plane;   /* [9n] input plane last fitted for each sample: the point it
                         was fitted at, its centroid, its normal */
     uint8_t *fitted; /* [n] plane[] is valid */
+    wpd_surface_memo *memo; /* [n] each sample's last look at the input around it
+                               (smooth_surface.h) */
     double *spacing; /* [n] local spacing at the previous positions (even steps) */
     wpd_even_nearest *nearest; /* [n] the neighbours that define it */
     double *ends;    /* [3 * n * WPD_EVEN_TRIES] input points an even step may go
@@ -74,6 +76,7 @@ static void free_frames(frames *f)
     free(f->rho);
     free(f->plane);
     free(f->fitted);
+    free(f->memo);
     free(f->spacing);
     free(f->nearest);
     free(f->ends);
@@ -101,9 +104,10 @@ static int alloc_frames(frames *f, const wpd_smooth_input *in, int k, int even)
     f->rho = malloc(m * sizeof *f->rho);
     f->plane = malloc(9 * m * sizeof *f->plane);
     f->fitted = calloc(m, 1);
+    f->memo = calloc(m, sizeof *f->memo);
     int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
              (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
-             f->fitted;
+             f->fitted && f->memo;
     if (!ok || !even)
         return ok ? 0 : -1;
     f->spacing = malloc(m * sizeof *f->spacing);
@@ -379,7 +383,7 @@ static int try_move(const wpd_smooth_input *in, frames *f, const guards *g,
             q[a] = near->p[a] + t * m[a];
         if (in->surface) {
             project_on_surface(in->surface, f, o, q);
-            pulled = wpd_hold_on_surface(in->surface, in->resolution, q);
+            pulled = wpd_hold_on_surface(in->surface, in->resolution, f->memo + o, q);
         }
     }
     const double *s0 = f->start + 3 * o;

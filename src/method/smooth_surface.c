@@ -30,10 +30,11 @@ enum { SPACING_K = 6 };
  * and the six nearest to p other than q are no farther from p than they
  * are, so spacing(q) >= mean(d1..d6) - d0. When d0 is below that bound
  * (the margin covers rounding) one query suffices; otherwise q's own
- * neighbours give the spacing. Returns the distance from p, or -1 if the
+ * neighbours give the spacing. memo (may be NULL) is refilled from the
+ * query where it found 7 points. Returns the distance from p, or -1 if the
  * grid is empty. */
 static double nearest_with_spacing(const wpd_grid *surface, const double p[3], uint32_t *near,
-                                   double *spacing)
+                                   double *spacing, wpd_surface_memo *memo)
 {
     uint32_t nb[SPACING_K + 1];
     double d2[SPACING_K + 1];
@@ -45,8 +46,15 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
     double d0 = sqrt(d2[0]);
     if (got == SPACING_K + 1) {
         double mean = 0;
-        for (int j = 1; j <= SPACING_K; j++)
+        for (int j = 1; j < SPACING_K; j++)
             mean += sqrt(d2[j]);
+        if (memo) {
+            memcpy(memo->at, p, sizeof memo->at);
+            memo->d0 = d0;
+            memo->m6 = (d0 + mean) / SPACING_K;
+            memo->valid = 1;
+        }
+        mean += sqrt(d2[SPACING_K]);
         double bound = (mean / SPACING_K - d0) * (1 - 1e-9);
         if (d0 <= bound) {
             *spacing = bound;
@@ -60,6 +68,19 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
         sum += sqrt(d2[j]);
     *spacing = got ? sum / got : 0;
     return d0;
+}
+
+/* 1 if the memo settles that stored lies within the input's local spacing
+ * of its nearest input point (smooth_surface.h; the margin covers the
+ * rounding of the distances). */
+static int memo_settles(const wpd_surface_memo *memo, const double stored[3])
+{
+    if (!memo || !memo->valid)
+        return 0;
+    double dx = stored[0] - memo->at[0], dy = stored[1] - memo->at[1],
+           dz = stored[2] - memo->at[2];
+    double e = sqrt(dx * dx + dy * dy + dz * dz);
+    return 2 * memo->d0 + 3 * e <= memo->m6 * (1 - 1e-9);
 }
 
 /* p rounded to the output's lattice (multiples of res per axis in the
@@ -114,13 +135,18 @@ int wpd_off_surface(const wpd_grid *surface, const double start[3], double spaci
  * output's lattice. Pulling p changes its nearest input point, whose
  * spacing may be smaller: a few rounds, then onto the input point itself
  * (exact in any output: it is an input point). Returns 1 if p was pulled. */
-int wpd_hold_on_surface(const wpd_grid *surface, const double res[3], double p[3])
+int wpd_hold_on_surface(const wpd_grid *surface, const double res[3], wpd_surface_memo *memo,
+                        double p[3])
 {
     for (int round = 0;; round++) {
         uint32_t near;
         double stored[3], spacing = 0;
         wpd_round_to_output(res, p, stored);
-        double d = nearest_with_spacing(surface, stored, &near, &spacing);
+        if (round == 0 && memo_settles(memo, stored)) {
+            memcpy(p, stored, sizeof stored);
+            return 0;
+        }
+        double d = nearest_with_spacing(surface, stored, &near, &spacing, memo);
         if (d <= spacing) {
             memcpy(p, stored, sizeof stored);
             return round > 0;

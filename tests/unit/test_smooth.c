@@ -323,3 +323,41 @@ TEST(a_point_is_on_the_output_lattice_but_for_floating_error_only)
     CHECK_MSG(memcmp(q, off, sizeof q) == 0 && wpd_on_lattice(none, off, q),
               "no lattice: the point moved or is off it");
 }
+
+TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
+{
+    /* Samples walking over a jittered sheet in steps of up to a seventh of
+     * the input spacing, now and then a step off the sheet far enough to
+     * be pulled back: the memo may only spare queries. */
+    cloud c = sheet(60, 1.0, 0, 7);
+    wpd_error err;
+    wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err);
+    double res[3] = {0.001, 0.001, 0.001};
+    uint64_t seed = 11;
+    int calls = 0, spared = 0, pulled = 0, differ = 0;
+    for (int walk = 0; walk < 200; walk++) {
+        wpd_surface_memo memo = {{0, 0, 0}, 0, 0, 0};
+        double p[3] = {10 + 40 * unit(&seed), 10 + 40 * unit(&seed), 0};
+        for (int step = 0; step < 30; step++) {
+            double len = step % 10 == 9 ? 3.0 : 0.15;
+            for (int a = 0; a < 3; a++)
+                p[a] += len * (unit(&seed) - 0.5) * (a == 2 ? 0.5 : 1);
+            double with[3], without[3];
+            memcpy(with, p, sizeof with);
+            memcpy(without, p, sizeof without);
+            wpd_surface_memo before = memo;
+            int a = wpd_hold_on_surface(&c.surface, res, &memo, with);
+            int b = wpd_hold_on_surface(&c.surface, res, NULL, without);
+            differ += a != b || memcmp(with, without, sizeof with) != 0;
+            spared += before.valid && memcmp(&before, &memo, sizeof memo) == 0;
+            pulled += b;
+            calls++;
+            memcpy(p, without, sizeof p);
+        }
+    }
+    CHECK_MSG(differ == 0, "%d of %d places differ with the memo", differ, calls);
+    CHECK_MSG(spared > calls / 10 && spared < calls, "the memo spared %d of %d queries", spared,
+              calls);
+    CHECK_MSG(pulled > 0, "no place was pulled back to the surface");
+    cloud_free(&c);
+}
