@@ -22,7 +22,9 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp)
      * sample, as a candidate ~90 with its border and view). The larger of
      * the two makes the peak nearly flat in n: about 220 MB under --mem
      * 512M on 2 threads from 1 % to 50 %, where 128 + 360 f gave 234, 185
-     * and 216 MB. */
+     * and 216 MB. Each sample's memo of the input around it (48 bytes,
+     * smooth_surface.h) came later and fits in that margin: 37 f a point,
+     * NC 7 x 7 to 50 % peaking at 287 MB against 270 without it. */
     double smoothing = 74 + 422 * sample_fraction;
     /* --sharp: the labeller's grid over the view (coordinates and slot ids
      * 28, cells ~4) and the labels (1), held through the Poisson pass. */
