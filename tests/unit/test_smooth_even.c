@@ -138,9 +138,11 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
             t /= nt;
             double stay = 0, order[INPUT];
             ranked better[INPUT];
-            int nbetter = 0;
-            for (int c = 0; c < INPUT; c++)
+            int nbetter = 0, within = 0;
+            for (int c = 0; c < INPUT; c++) {
                 order[c] = dist(inp + 3 * c, pos + 3 * o);
+                within += order[c] <= reach;
+            }
             /* The literal sums over the WPD_EVEN_CANDIDATES input points
              * nearest to the sample within reach: the candidates. */
             uint8_t candidate[INPUT] = {0};
@@ -153,9 +155,6 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
                     break;
                 candidate[next] = 1;
             }
-            int within = 0;
-            for (int c = 0; c < INPUT; c++)
-                within += order[c] <= reach;
             capped += within > WPD_EVEN_CANDIDATES;
             for (int c = -1; c < INPUT; c++) {
                 const double *q = c < 0 ? pos + 3 * o : inp + 3 * c;
