@@ -290,9 +290,10 @@ static int two_nearest(const wpd_grid *g, gathered *near, int have, const int64_
 
 /* The cost of point p's nearest sample, from its second-nearest, both
  * within the reach (eliminate.h). near: the samples around p's cell c,
- * when have. */
+ * when have. *nearest (when not NULL): that sample if strictly nearer than
+ * every other, else WPD_ELIMINATE_NO_NEAREST. */
 static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[3],
-                    const double *p)
+                    const double *p, uint32_t *nearest)
 {
     uint32_t idx[2];
     double d2[2];
@@ -300,11 +301,16 @@ static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[
     int got = two_nearest(&e->grid, near, have, c, p, e->grid.cell, idx, d2);
     if (got >= 1 && d2[0] <= reach2)
         atomic_max(&e->cost[idx[0]], wpd_double_bits(got == 2 && d2[1] < reach2 ? d2[1] : reach2));
+    if (nearest)
+        *nearest = got == 1 || (got == 2 && d2[0] < d2[1]) ? idx[0] : WPD_ELIMINATE_NO_NEAREST;
 }
 
 void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t *skip,
-                              size_t npts, int threads)
+                              size_t npts, int threads, uint32_t *nearest)
 {
+    if (nearest)
+        for (size_t i = 0; i < npts; i++)
+            nearest[i] = WPD_ELIMINATE_NO_NEAREST;
     if (e->live == 0)
         return;
     size_t nblocks = (npts + QUERY_BLOCK - 1) / QUERY_BLOCK;
@@ -323,7 +329,7 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
             if (!o) {
                 for (size_t i = first; i < first + n; i++)
                     if (!skip || !skip[i])
-                        add_one(e, NULL, 0, c, pts + 3 * i);
+                        add_one(e, NULL, 0, c, pts + 3 * i, nearest ? nearest + i : NULL);
                 continue;
             }
             size_t m = order_block(&e->grid, pts, skip, first, n, o);
@@ -336,7 +342,7 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
                     cell_of(&e->grid, p, c);
                     have = gather(&e->grid, c, near);
                 }
-                add_one(e, near, have, c, p);
+                add_one(e, near, have, c, p, nearest ? nearest + o->val[k] : NULL);
             }
         }
         free(o);

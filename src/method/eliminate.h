@@ -97,12 +97,19 @@ static inline double wpd_eliminate_crowd_factor(double nn, double median)
  * Returns 0, or -1 with err set. */
 int wpd_eliminate_begin(wpd_eliminate *e, wpd_error *err);
 
+/* No sample strictly nearest to a point (wpd_eliminate_add_points). */
+#define WPD_ELIMINATE_NO_NEAREST UINT32_MAX
+
 /* Hands in input points pts[3i..3i+2], i < npts (frame coordinates, as the
- * samples'), but those with skip[i] != 0 (skip may be NULL). Every input point must be handed in exactly once per sweep
- * (the samples themselves are input points too). May run on several
- * threads, also concurrently for different blocks. */
+ * samples'), but those with skip[i] != 0 (skip may be NULL). Every input
+ * point must be handed in exactly once per sweep (the samples themselves
+ * are input points too). May run on several threads, also concurrently for
+ * different blocks. nearest (NULL: not wanted) gets, per point, its nearest
+ * live sample when that is strictly nearer than every other live sample,
+ * else WPD_ELIMINATE_NO_NEAREST (a tie, no sample at all, a skipped point):
+ * the costs find it anyway, and smoothing's cover starts from it. */
 void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t *skip,
-                              size_t npts, int threads);
+                              size_t npts, int threads, uint32_t *nearest);
 
 /* Closes the sweep: deletes samples (rules above) while more than target
  * are live. Returns the number deleted (>= 1 when live > target), or -1

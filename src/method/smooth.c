@@ -20,6 +20,8 @@
 #include "method/smooth_guard.h"
 #include "method/smooth_surface.h"
 
+_Static_assert(WPD_SMOOTH_NO_NEAREST == WPD_COVER_NO_HINT, "one mark for no nearest sample");
+
 /* Why a sample keeps its place through every iteration (0: it may move). */
 enum {
     FREE = 0,
@@ -575,10 +577,11 @@ static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_
     g->spacing = (wpd_spacing_guard){NULL, NULL, f->n, f->cap, f->half, in->spacing,
                                      STORE_MARGIN * in->spacing, 0, NULL}; /* step_max: iterate */
     g->ends = (wpd_step_ends){f->ends, f->tries, WPD_EVEN_TRIES};
-    if (in->surface && wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx,
-                                       in->spacing, threads, err))
-        return -1;
-    return 0;
+    if (!in->surface)
+        return 0;
+    wpd_cover_hint hint = {in->nearest, f->perm};
+    return wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx, in->spacing,
+                          in->nearest ? &hint : NULL, threads, err);
 }
 
 int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *err)

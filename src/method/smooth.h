@@ -68,7 +68,15 @@ typedef struct wpd_smooth_input {
     int even_iterations;     /* even-spacing steps, alternated with the Voronoi
                                 steps, a Voronoi step first (smooth_even.h; they
                                 need surface, else none) */
+    const uint32_t *nearest; /* per input point (by surface's slots),
+                                the sample (index into xyz) strictly nearer to it
+                                than every other sample and context sample, or
+                                WPD_SMOOTH_NO_NEAREST; or NULL. Where an earlier
+                                pass found these (the exact count), the coverage
+                                guard starts from them (the same result) */
 } wpd_smooth_input;
+
+#define WPD_SMOOTH_NO_NEAREST UINT32_MAX
 
 typedef struct wpd_smooth_stats {
     size_t open_cells;       /* samples kept fixed for an open cell (last iteration) */

@@ -171,13 +171,44 @@ static void nearest_of_group(const group_cands *c, const double *x, double *d2, 
     *id = (uint32_t)bi[0];
 }
 
+/* A hint with the caller's numbers turned into order positions. */
+typedef struct order_hint {
+    const uint32_t *nearest; /* by slot: the caller's number, or WPD_COVER_NO_HINT */
+    uint32_t *order;         /* the caller's number -> order position */
+} order_hint;
+
+/* The owner the hint gives the input point in slot s, or NO_OWNER: none. */
+static uint32_t hinted_owner(const order_hint *hint, uint32_t s)
+{
+    uint32_t h = hint->nearest[s];
+    return h == WPD_COVER_NO_HINT ? NO_OWNER : hint->order[h];
+}
+
 /* Owners and bounds of the input points in slots b..e-1, inside [lo, hi].
- * The points share their candidates, gathered once and copied side by side
- * (a point with no candidate within tau, in a hole, asks the grid). */
-static void owners_of_group(const wpd_grid *samples, const wpd_grid *surface, uint32_t b,
+ * A point the hint names its nearest sample for takes that one (the
+ * search would find it: it is strictly nearest); the others share their
+ * candidates, gathered once and copied side by side (a point with no
+ * candidate within tau, in a hole, asks the grid). */
+static void owners_of_group(const wpd_grid *samples, const double *start,
+                            const wpd_grid *surface, const order_hint *hint, uint32_t b,
                             uint32_t e, const double lo[3], const double hi[3], double tau,
                             uint32_t *owner, float *bound)
 {
+    int left = hint ? 0 : (int)(e - b);
+    for (uint32_t s = b; hint && s < e; s++) {
+        const double *x = surface->xyz + 3 * (size_t)s;
+        uint32_t id = hinted_owner(hint, s);
+        if (id == NO_OWNER) {
+            owner[s] = NO_OWNER;
+            left++;
+            continue;
+        }
+        const double *q = start + 3 * (size_t)id;
+        double dx = q[0] - x[0], dy = q[1] - x[1], dz = q[2] - x[2];
+        set_owner(samples, x, tau, dx * dx + dy * dy + dz * dz, id, owner + s, bound + s);
+    }
+    if (left == 0)
+        return;
     uint32_t cand[GROUP_CANDIDATES];
     group_cands c;
     int nc = group_candidates(samples, lo, hi, tau, cand);
@@ -189,6 +220,8 @@ static void owners_of_group(const wpd_grid *samples, const wpd_grid *surface, ui
     for (; c.n % OWNER_LANES; c.n++)
         c.x[c.n] = c.y[c.n] = c.z[c.n] = INFINITY, c.id[c.n] = (double)UINT32_MAX;
     for (uint32_t s = b; s < e; s++) {
+        if (hint && owner[s] != NO_OWNER)
+            continue;
         const double *x = surface->xyz + 3 * (size_t)s;
         double best;
         uint32_t id;
@@ -201,7 +234,8 @@ static void owners_of_group(const wpd_grid *samples, const wpd_grid *surface, ui
  * the samples, and this is most of the cost of the coverage: consecutive
  * slots (neighbours in space: the grid's order) are taken in groups that
  * fit in a box of tau/2 and share one candidate search. */
-static void owners_of_block(const wpd_grid *samples, const wpd_grid *surface, uint32_t b,
+static void owners_of_block(const wpd_grid *samples, const double *start,
+                            const wpd_grid *surface, const order_hint *hint, uint32_t b,
                             uint32_t e, double tau, uint32_t *owner, float *bound)
 {
     while (b < e) {
@@ -221,13 +255,14 @@ static void owners_of_block(const wpd_grid *samples, const wpd_grid *surface, ui
             memcpy(lo, l, sizeof lo);
             memcpy(hi, h, sizeof hi);
         }
-        owners_of_group(samples, surface, b, t, lo, hi, tau, owner, bound);
+        owners_of_group(samples, start, surface, hint, b, t, lo, hi, tau, owner, bound);
         b = t;
     }
 }
 
 int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, size_t n,
-                   size_t nctx, double tau, int threads, wpd_error *err)
+                   size_t nctx, double tau, const wpd_cover_hint *hint, int threads,
+                   wpd_error *err)
 {
     memset(c, 0, sizeof *c);
     c->n = n;
@@ -247,11 +282,17 @@ int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, s
         wpd_cover_free(c);
         return -1;
     }
+    /* Without memory for the order, every point is searched for. */
+    order_hint oh = {hint ? hint->nearest : NULL,
+                     hint ? malloc((n ? n : 1) * sizeof *oh.order) : NULL};
+    for (size_t o = 0; oh.order && o < n; o++)
+        oh.order[hint->perm[o]] = (uint32_t)o;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (size_t b = 0; b < surface->n; b += BLOCK_POINTS)
-        owners_of_block(&g, surface, (uint32_t)b,
+        owners_of_block(&g, start, surface, oh.order ? &oh : NULL, (uint32_t)b,
                         (uint32_t)(surface->n - b < BLOCK_POINTS ? surface->n : b + BLOCK_POINTS),
                         tau, c->owner, c->bound);
+    free(oh.order);
     wpd_grid_free(&g);
     return 0;
 }

@@ -117,11 +117,25 @@ typedef struct wpd_cover {
     size_t cap;              /* room in slot */
 } wpd_cover;
 
+/* What an earlier look at the input found: nearest[s], for the input point
+ * in the surface's slot s, is the sample (by the caller's numbering)
+ * strictly nearer to it than every other sample and context sample, or
+ * WPD_COVER_NO_HINT; perm[o] is the caller's number of the sample at order
+ * position o. The exact count finds these (eliminate.h) and so spares the
+ * cover most of its first search. */
+#define WPD_COVER_NO_HINT UINT32_MAX
+typedef struct wpd_cover_hint {
+    const uint32_t *nearest;
+    const uint32_t *perm;
+} wpd_cover_hint;
+
 /* Bounds and first owners of the surface's points among the samples
- * start[0..n) (order space) and the context samples start[n..n+nctx).
- * Returns 0, or -1 with err set. */
+ * start[0..n) (order space) and the context samples start[n..n+nctx);
+ * hint (may be NULL) names some points' nearest samples, and the result
+ * is the same as without it. Returns 0, or -1 with err set. */
 int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, size_t n,
-                   size_t nctx, double tau, int threads, wpd_error *err);
+                   size_t nctx, double tau, const wpd_cover_hint *hint, int threads,
+                   wpd_error *err);
 void wpd_cover_free(wpd_cover *c);
 
 /* Before an iteration's moves: which sample keeps which input point, from

@@ -311,6 +311,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     wpd_store_close(&run);
     wpd_fixed_close(&run);
     wpd_grid_free(&run.surface);
+    free(run.nearest);
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);
     wpd_scan_free(&run.scan);

@@ -13,6 +13,7 @@
 #include "core/sort.h"
 #include "spill/blobs.h"
 #include "method/eliminate.h"
+#include "method/smooth.h"
 #include "resample/sample_store.h"
 #include "resample/ranks.h"
 #include "resample/fixed.h"
@@ -125,6 +126,40 @@ static int cost_view_build(const wpd_run *run, int t, double dist, int labelled,
     return rc;
 }
 
+/* Whether the exact count keeps each input point's nearest sample for
+ * smoothing (run->nearest, by the surface grid's slots): one tile in
+ * memory, with its surface grid over those points, that will be smoothed,
+ * and no other samples than its own (earlier nights' samples would be
+ * context there). */
+static int keeps_nearest(const wpd_run *run, const wpd_tile_data *d)
+{
+    const wpd_params *p = run->p;
+    return run->res->in_memory && run->plan.ntiles == 1 && !run->owner && run->fixed.n == 0 &&
+           p->smooth && p->iterations + p->even_iterations > 0 && run->surface.n == d->n &&
+           d->n > 0;
+}
+
+/* The nearest sample of each input point, from the view's numbering
+ * (near) to the store's (run->nearest); without memory for it, none is
+ * kept (smoothing then searches for them). */
+static void keep_nearest(wpd_run *run, const cost_view *v, size_t own, uint32_t *near,
+                         size_t npts)
+{
+    uint32_t *store_of = malloc((v->n ? v->n : 1) * sizeof *store_of);
+    if (!store_of) {
+        free(run->nearest);
+        run->nearest = NULL;
+        return;
+    }
+    for (size_t i = 0; i < v->n; i++)
+        store_of[i] = WPD_SMOOTH_NO_NEAREST;
+    for (size_t i = 0; i < own; i++)
+        store_of[v->at[i]] = (uint32_t)i;
+    for (size_t i = 0; i < npts; i++)
+        near[i] = near[i] == WPD_ELIMINATE_NO_NEAREST ? WPD_SMOOTH_NO_NEAREST : store_of[near[i]];
+    free(store_of);
+}
+
 /* Step 1 for tile t: its samples' costs and crowding distances. */
 static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -143,7 +178,16 @@ static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
         wpd_eliminate_init(&e, v.xyz, v.half, v.n, run->radius, sw->reach, threads, err) ||
         wpd_eliminate_begin(&e, err) || wpd_tiles_read(&run->tiles, t, &d, err))
         goto done;
-    wpd_eliminate_add_points(&e, d.xyz, NULL, d.n, threads);
+    /* Kept for smoothing, the nearest samples follow the surface grid's
+     * slots, as the cover reads them; the points go in in that order (its
+     * copy of them: the same costs, which take a maximum). */
+    int keep = keeps_nearest(run, &d);
+    if (keep && !run->nearest)
+        run->nearest = malloc(d.n * sizeof *run->nearest);
+    uint32_t *near = keep ? run->nearest : NULL;
+    wpd_eliminate_add_points(&e, near ? run->surface.xyz : d.xyz, NULL, d.n, threads, near);
+    if (near)
+        keep_nearest(run, &v, s->n, near, d.n);
     wpd_tiles_release(&run->tiles, &d);
     for (size_t i = 0; i < s->n; i++) {
         x->cost[i] = e.cost[v.at[i]];
@@ -472,6 +516,21 @@ typedef struct cut {
 
 #define CUT_FIELDS (EF(EF_STATE) | EF(EF_RANK) | EF(EF_CGID) | EF(EF_CAND))
 
+/* The kept nearest samples after the store's samples moved (moved[i]: the
+ * new index of sample i, or WPD_SMOOTH_NO_NEAREST: deleted, and so is a
+ * point's nearest no longer); NULL moved (no memory): none kept. */
+static void follow_store(wpd_run *run, const uint32_t *moved)
+{
+    if (!moved) {
+        free(run->nearest);
+        run->nearest = NULL;
+        return;
+    }
+    for (size_t i = 0; i < run->surface.n; i++)
+        if (run->nearest[i] != WPD_SMOOTH_NO_NEAREST)
+            run->nearest[i] = moved[run->nearest[i]];
+}
+
 /* Tile t's samples but those the cut deletes (del: per candidate). */
 static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t *del,
                          wpd_error *err)
@@ -479,9 +538,13 @@ static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t
     if (wpd_store_load(run, t, err))
         return -1;
     wpd_tile_samples *s = &run->store[t];
+    /* The input points' nearest samples follow the store (run->nearest). */
+    uint32_t *moved = run->nearest ? malloc((s->n ? s->n : 1) * sizeof *moved) : NULL;
     size_t n = 0, c = 0;
     for (size_t i = 0; i < s->n; i++) {
         int skip = c < x->ncand && x->cand[c] == i ? del[c++] : 0;
+        if (moved)
+            moved[i] = skip ? WPD_SMOOTH_NO_NEAREST : (uint32_t)n;
         if (skip)
             continue;
         s->gid[n] = s->gid[i];
@@ -491,6 +554,9 @@ static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t
         n++;
     }
     s->n = n;
+    if (run->nearest)
+        follow_store(run, moved);
+    free(moved);
     return wpd_store_save(run, t, err);
 }
 

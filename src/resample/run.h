@@ -64,6 +64,12 @@ typedef struct wpd_run {
                                  k-th neighbour distance */
     wpd_grid surface;         /* one in-memory tile: its surface grid, built before
                                  the Poisson passes, which run on it (empty otherwise) */
+    uint32_t *nearest;        /* one in-memory tile that is smoothed, with no earlier
+                                 nights' samples: per input point (the surface grid's
+                                 slots), its nearest sample (index in the store) as
+                                 the exact count's last sweep
+                                 found it, or WPD_SMOOTH_NO_NEAREST; smoothing's cover
+                                 starts from it (NULL: none, or not kept) */
     wpd_resample_result *res;
     int *owner;               /* [ntiles] the rank that runs each tile where the ranks
                                  share the tiles (ranks.c), or NULL: this process

@@ -50,9 +50,15 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     wpd_smooth_input in = {s->xyz, s->n, s->edge, ctx, ctx_edge, nctx,
                            surface, run->surface_dk, p->k, p->iterations, r, threads,
                            {p->resolution[0], p->resolution[1], p->resolution[2]},
-                           p->even_iterations};
+                           p->even_iterations,
+                           /* the exact count's nearest samples: the surface is
+                              the run's, its points those d holds */
+                           surface == &run->surface && nctx == 0 ? run->nearest : NULL};
     wpd_smooth_stats st;
-    if (wpd_smooth(&in, &st, err))
+    int failed = wpd_smooth(&in, &st, err);
+    free(run->nearest); /* used up: the samples move */
+    run->nearest = NULL;
+    if (failed)
         goto done;
 #pragma omp atomic
     run->res->open_cells += st.open_cells;

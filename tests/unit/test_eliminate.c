@@ -83,7 +83,7 @@ static uint8_t *eliminate(const double *s, size_t m, const double *xyz, size_t n
             goto done;
         for (int b = blocks - 1; b >= 0; b--) {
             size_t lo = n * (size_t)b / (size_t)blocks, hi = n * (size_t)(b + 1) / (size_t)blocks;
-            wpd_eliminate_add_points(&e, xyz + 3 * lo, NULL, hi - lo, threads);
+            wpd_eliminate_add_points(&e, xyz + 3 * lo, NULL, hi - lo, threads, NULL);
         }
         if (wpd_eliminate_sweep(&e, target, &err) <= 0)
             goto done;
@@ -133,7 +133,7 @@ TEST(eliminate_costs_are_the_holes_the_definition_gives)
     wpd_error err = {0};
     CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.2, 0, 2, &err) == 0);
     CHECK(wpd_eliminate_begin(&e, &err) == 0);
-    wpd_eliminate_add_points(&e, xyz, NULL, n, 2);
+    wpd_eliminate_add_points(&e, xyz, NULL, n, 2, NULL);
     double *want = costs_by_brute_force(xyz, n, s, m);
     size_t wrong = 0;
     for (size_t j = 0; j < m; j++) {
@@ -162,7 +162,7 @@ TEST(eliminate_is_exact_when_samples_stand_far_apart_for_r)
     CHECK(wpd_eliminate_init(&e, s, NULL, m, r, reach, 2, &err) == 0);
     CHECK(wpd_eliminate_begin(&e, &err) == 0);
     CHECK_MSG(e.grid.cell > 8 * 1.5 * r, "cell %g for r %g", e.grid.cell, r);
-    wpd_eliminate_add_points(&e, xyz, NULL, n, 2);
+    wpd_eliminate_add_points(&e, xyz, NULL, n, 2, NULL);
     double *want = costs_by_brute_force(xyz, n, s, m);
     size_t wrong = 0, wrong_nearest = 0;
     for (size_t j = 0; j < m; j++) {
@@ -213,7 +213,7 @@ TEST(eliminate_costs_are_exact_with_ties_and_many_blocks)
         wpd_error err = {0};
         CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, 0, threads, &err) == 0);
         CHECK(wpd_eliminate_begin(&e, &err) == 0);
-        wpd_eliminate_add_points(&e, xyz, NULL, n, threads);
+        wpd_eliminate_add_points(&e, xyz, NULL, n, threads, NULL);
         size_t wrong = 0;
         for (size_t j = 0; j < m; j++) {
             double got;
@@ -236,7 +236,7 @@ TEST(eliminate_deletions_of_one_sweep_stay_apart)
     wpd_error err = {0};
     CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.0, 0, 1, &err) == 0);
     CHECK(wpd_eliminate_begin(&e, &err) == 0);
-    wpd_eliminate_add_points(&e, xyz, NULL, n, 1);
+    wpd_eliminate_add_points(&e, xyz, NULL, n, 1, NULL);
     uint64_t *cost = malloc(m * sizeof *cost);
     memcpy(cost, e.cost, m * sizeof *cost);
     long del = wpd_eliminate_sweep(&e, m / 2, &err);
@@ -302,4 +302,58 @@ TEST(eliminate_opens_no_holes)
               "coverage %.3f -> %.3f (random deletions %.3f), r %.3f, %d sweeps", before, after,
               at_random, r, sweeps);
     free(alive), free(all), free(random), free(s), free(xyz), free(gid);
+}
+
+/* The sample strictly nearest to p among s[0..m) where alive (NULL: all),
+ * or WPD_ELIMINATE_NO_NEAREST on a tie or without one. */
+static uint32_t strictly_nearest(const double *p, const double *s, const uint8_t *alive,
+                                 size_t m)
+{
+    double best = INFINITY, second = INFINITY;
+    uint32_t at = WPD_ELIMINATE_NO_NEAREST;
+    for (size_t j = 0; j < m; j++) {
+        if (alive && !alive[j])
+            continue;
+        double d = dist2(p, s + 3 * j);
+        if (d < best)
+            second = best, best = d, at = (uint32_t)j;
+        else if (d < second)
+            second = d;
+    }
+    return best < second ? at : WPD_ELIMINATE_NO_NEAREST;
+}
+
+/* Points and samples on integer lattices, so that many points lie exactly
+ * as far from two samples: the strictly nearest sample of each point, and
+ * none on a tie, before and after a sweep. */
+TEST(eliminate_names_each_points_strictly_nearest_sample)
+{
+    size_t n = 0, m = 0;
+    double *xyz = malloc(3 * 3600 * sizeof *xyz), *s = malloc(3 * 400 * sizeof *s);
+    uint64_t st = 3;
+    for (int i = 0; i < 60; i++)
+        for (int j = 0; j < 60; j++, n++)
+            xyz[3 * n] = i, xyz[3 * n + 1] = j, xyz[3 * n + 2] = (i + j) % 2;
+    for (int i = 0; i < 20; i++)
+        for (int j = 0; j < 20; j++, m++) /* 3 apart, some moved by one */
+            s[3 * m] = 3 * i + (unit(&st) < 0.3), s[3 * m + 1] = 3 * j, s[3 * m + 2] = 0;
+    uint32_t *got = malloc(n * sizeof *got);
+    wpd_eliminate e;
+    wpd_error err = {0};
+    CHECK(wpd_eliminate_init(&e, s, NULL, m, 3, 0, 2, &err) == 0);
+    for (int sweep = 0; sweep < 2; sweep++) {
+        CHECK(wpd_eliminate_begin(&e, &err) == 0);
+        wpd_eliminate_add_points(&e, xyz, NULL, n, 2, got);
+        size_t wrong = 0, ties = 0;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t want = strictly_nearest(xyz + 3 * i, s, e.alive, m);
+            wrong += got[i] != want;
+            ties += want == WPD_ELIMINATE_NO_NEAREST;
+        }
+        CHECK_MSG(wrong == 0 && ties > 100, "sweep %d: %zu of %zu wrong, %zu ties", sweep,
+                  wrong, n, ties);
+        CHECK(wpd_eliminate_sweep(&e, m * 3 / 4, &err) > 0);
+    }
+    wpd_eliminate_free(&e);
+    free(got), free(s), free(xyz);
 }

@@ -89,7 +89,7 @@ static int smooth(cloud *c, double *t, double r, int threads, int even, wpd_smoo
     wpd_error err;
     memcpy(t, c->s, 3 * c->m * sizeof *t);
     wpd_smooth_input in = {t, c->m, NULL, NULL, NULL, 0, &c->surface, 0, 13, 5, r, threads,
-                           {0, 0, 0}, even};
+                           {0, 0, 0}, even, NULL};
     return wpd_smooth(&in, st, &err);
 }
 
@@ -244,7 +244,7 @@ static int keeper_with_ends(const double pos[6], const double ends[24], const ui
     wpd_cover cover;
     CHECK(wpd_grid_build(&surface, x, NULL, 1, 1, 1, &err) == 0);
     CHECK(wpd_grid_build(&samples, pos, NULL, 2, 1, 1, &err) == 0);
-    CHECK(wpd_cover_init(&cover, &surface, pos, 2, 0, 1, 1, &err) == 0);
+    CHECK(wpd_cover_init(&cover, &surface, pos, 2, 0, 1, NULL, 1, &err) == 0);
     wpd_step_ends e = {ends, count, 4};
     wpd_spacing_guard g = {&samples, pos, 2, cap, NULL, 1, 0, 2, with_ends ? &e : NULL};
     CHECK(wpd_cover_update(&cover, &g, pos, 1, &err) == 0);
@@ -359,5 +359,66 @@ TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
     CHECK_MSG(spared > calls / 10 && spared < calls, "the memo spared %d of %d queries", spared,
               calls);
     CHECK_MSG(pulled > 0, "no place was pulled back to the surface");
+    cloud_free(&c);
+}
+
+/* Per slot of c's surface, the sample strictly nearest to its point, or
+ * WPD_COVER_NO_HINT (a tie); only every `every`-th slot is named. */
+static uint32_t *nearest_by_slot(const cloud *c, int every)
+{
+    uint32_t *near = malloc(c->surface.n * sizeof *near);
+    for (size_t s = 0; s < c->surface.n; s++) {
+        const double *x = c->surface.xyz + 3 * s;
+        double best = INFINITY, second = INFINITY;
+        uint32_t at = 0;
+        for (size_t j = 0; j < c->m; j++) {
+            const double *q = c->s + 3 * j;
+            double d = (q[0] - x[0]) * (q[0] - x[0]) + (q[1] - x[1]) * (q[1] - x[1]) +
+                       (q[2] - x[2]) * (q[2] - x[2]);
+            if (d < best)
+                second = best, best = d, at = (uint32_t)j;
+            else if (d < second)
+                second = d;
+        }
+        near[s] = best < second && s % (size_t)every == 0 ? at : WPD_COVER_NO_HINT;
+    }
+    return near;
+}
+
+/* The exact count hands smoothing each input point's nearest sample: the
+ * cover's first owners and bounds with that hint (for every point, and
+ * for every other one; the caller numbers the samples in another order
+ * than the cover) are those it finds by itself. */
+TEST(cover_starts_from_the_nearest_samples_it_is_given)
+{
+    cloud c = sheet(60, 0.1, 0, 5);
+    double r = 0.4;
+    sample(&c, r, 4);
+    size_t m = c.m;
+    uint32_t *perm = malloc(m * sizeof *perm);
+    double *start = malloc(3 * m * sizeof *start);
+    for (size_t o = 0; o < m; o++) { /* the cover's sample o is the caller's m - 1 - o */
+        perm[o] = (uint32_t)(m - 1 - o);
+        memcpy(start + 3 * o, c.s + 3 * perm[o], 3 * sizeof *start);
+    }
+    wpd_cover plain;
+    wpd_error err;
+    CHECK(wpd_cover_init(&plain, &c.surface, start, m, 0, r, NULL, 2, &err) == 0);
+    for (int every = 1; every <= 2; every++) {
+        uint32_t *near = nearest_by_slot(&c, every);
+        wpd_cover_hint hint = {near, perm};
+        wpd_cover hinted;
+        CHECK(wpd_cover_init(&hinted, &c.surface, start, m, 0, r, &hint, 2, &err) == 0);
+        size_t named = 0;
+        for (size_t s = 0; s < c.surface.n; s++)
+            named += near[s] != WPD_COVER_NO_HINT;
+        CHECK_MSG(named > c.surface.n / 3, "%zu of %zu points named", named, c.surface.n);
+        CHECK(!memcmp(plain.owner, hinted.owner, c.surface.n * sizeof *plain.owner));
+        CHECK(!memcmp(plain.bound, hinted.bound, c.surface.n * sizeof *plain.bound));
+        wpd_cover_free(&hinted);
+        free(near);
+    }
+    wpd_cover_free(&plain);
+    free(perm), free(start);
     cloud_free(&c);
 }
