@@ -10,10 +10,11 @@
 enum { KEY_BITS = 21 };
 #define KEY_MASK ((1ull << KEY_BITS) - 1)
 
-/* The sample ladder's first edge and the sampling blocks' edge, against
- * the exact ladder's first edge; one block in SAMPLE_SHARE is sampled.
- * BLOCK_LEVELS: log2(BLOCK_COARSER), the coarsenings of the exact ladder
- * after which its voxels no longer nest in blocks. */
+/* Each sample ladder's first edge and its sampling blocks' edge, against
+ * the first edge of the ladder before it (the exact one, then the first
+ * sample); one block in SAMPLE_SHARE of those the ladder before samples
+ * is sampled. BLOCK_LEVELS: log2(BLOCK_COARSER), the coarsenings of the
+ * ladder before after which its voxels no longer nest in blocks. */
 #define SAMPLE_FINER 4
 #define BLOCK_COARSER 4
 #define BLOCK_LEVELS 2
@@ -159,84 +160,143 @@ int wpd_ladder_init(wpd_ladder *l, const double extent[3], uint64_t npoints, siz
     l->cap = cap < 1024 ? 1024 : cap;
     /* Starting finer than needed only costs cache misses (2^16 voxels along
      * the NC Raleigh scan cost 1.3 s); never finer than 2^16 along the
-     * longest axis, so indices fit their 21 bits (the sample's 2^18). */
+     * longest axis, so indices fit their 21 bits (the samples' 2^18 and
+     * 2^20). */
     double longest = fmax(extent[0], fmax(extent[1], extent[2]));
     double face = fmax(extent[0] * extent[1], fmax(extent[0] * extent[2], extent[1] * extent[2]));
     double keys = fmin((double)l->cap / 2, (double)npoints);
     double edge = fmax(longest / 65536.0, sqrt(face / fmax(keys, 1)));
     if (!(edge > 0))
         edge = 1.0;
-    l->block_inv = 1.0 / (edge * BLOCK_COARSER);
     l->last_block = WPD_VOXEL_KEY_EMPTY;
     l->sampling = wpd_ladder_samples(cap, wanted);
-    if (scale_init(&l->all, edge) ||
-        (l->sampling && scale_init(&l->sample, edge / SAMPLE_FINER))) {
+    if (scale_init(&l->all, edge)) {
         wpd_ladder_free(l);
         return -1;
+    }
+    for (int j = 0; j < l->sampling; j++) {
+        l->block_inv[j] = 1.0 / (edge * BLOCK_COARSER);
+        edge /= SAMPLE_FINER;
+        if (scale_init(&l->sample[j], edge)) {
+            wpd_ladder_free(l);
+            return -1;
+        }
     }
     return 0;
 }
 
-/* Whether p lies in a sampled block. Every edge is the first one times a
- * power of two, so the voxels of both sets nest in blocks up to the
- * block's edge (the exact ladder's first BLOCK_LEVELS coarsenings). */
-static int sampled(wpd_ladder *l, const double p[3])
+/* How many sample ladders count p: the first samples one block in
+ * SAMPLE_SHARE, the second one in SAMPLE_SHARE of the first's blocks'
+ * sub-blocks. Every edge is the first one times a power of two, so the
+ * voxels of each ladder nest in the next one's blocks up to the block's
+ * edge (the ladder's first BLOCK_LEVELS coarsenings). */
+static int sample_depth(wpd_ladder *l, const double p[3])
 {
-    uint64_t block = key_of(p, l->block_inv);
+    uint64_t block = key_of(p, l->block_inv[0]);
     if (block != l->last_block) {
         l->last_block = block;
-        l->last_sampled = wpd_mix64(block) % SAMPLE_SHARE == 0;
+        l->last_depth = wpd_mix64(block) % SAMPLE_SHARE == 0;
     }
-    return l->last_sampled;
+    if (l->last_depth == 0 || l->sampling < 2)
+        return l->last_depth;
+    /* A different hash for the sub-blocks: not the first level's again. */
+    uint64_t sub = key_of(p, l->block_inv[1]);
+    return wpd_mix64(sub ^ 0x5bd1e9955bd1e995ull) % SAMPLE_SHARE == 0 ? 2 : 1;
 }
 
 int wpd_ladder_put(wpd_ladder *l, const double p[3])
 {
     if (scale_put(&l->all, p, l->cap))
         return -1;
-    return l->sampling && sampled(l, p) ? scale_put(&l->sample, p, l->cap) : 0;
+    int depth = l->sampling ? sample_depth(l, p) : 0;
+    for (int j = 0; j < depth && j < l->sampling; j++)
+        if (scale_put(&l->sample[j], p, l->cap))
+            return -1;
+    return 0;
 }
 
 int wpd_ladder_merge(wpd_ladder *into, wpd_ladder *from)
 {
     into->last_block = WPD_VOXEL_KEY_EMPTY;
-    return scale_merge(&into->all, &from->all, into->cap) ||
-                   (into->sampling && scale_merge(&into->sample, &from->sample, into->cap))
-               ? -1
-               : 0;
+    if (scale_merge(&into->all, &from->all, into->cap))
+        return -1;
+    for (int j = 0; j < into->sampling; j++)
+        if (scale_merge(&into->sample[j], &from->sample[j], into->cap))
+            return -1;
+    return 0;
+}
+
+/* A sample ladder's estimates of the scales finer than the finest known
+ * one (edge *fine_edge, count *fine_m, from a ladder coarsened fine_level
+ * times): its counts there, scaled by the ratio of the known count to its
+ * own at that edge, into edge[0..] and m[0..] (at most room). Returns how
+ * many (0: it cannot tell: see wpd_ladder_finish), and moves the finest
+ * known scale to its finest; -1 (memory). */
+static int sample_estimates(wpd_ladder_scale *s, int fine_level, double *fine_edge,
+                            double *fine_m, double *edge, uint64_t *m, int room)
+{
+    double se[WPD_MAX_SCALES];
+    uint64_t sm[WPD_MAX_SCALES];
+    int ns = scale_counts(s, se, sm, WPD_MAX_SCALES);
+    if (ns < 0)
+        return -1;
+    /* The sample's scale equal to the finest known one (edges double
+     * exactly from first edges a power of two apart). */
+    int at = 0;
+    while (at < ns && se[at] < *fine_edge)
+        at++;
+    /* The ratio of the two counts at that scale estimates the share of
+     * voxels sampled only where those voxels nest in blocks: a voxel of
+     * several blocks counts as sampled when any of them is (with 8 blocks
+     * a voxel, 0.40 of the voxels against 1/16). */
+    if (fine_level > BLOCK_LEVELS || at >= ns || se[at] != *fine_edge ||
+        sm[at] < WPD_LADDER_SAMPLE_MIN)
+        return 0;
+    int k = at < room ? at : room;
+    double ratio = *fine_m / (double)sm[at];
+    for (int i = 0; i < k; i++) {
+        edge[i] = se[at - k + i];
+        m[i] = (uint64_t)llround((double)sm[at - k + i] * ratio);
+    }
+    if (k > 0) {
+        *fine_edge = se[at - k];
+        *fine_m = (double)sm[at - k] * ratio;
+    }
+    return k;
 }
 
 int wpd_ladder_finish(wpd_ladder *l, double *edge, uint64_t *m, int *nscales, int *nestimated)
 {
-    double se[WPD_MAX_SCALES];
-    uint64_t sm[WPD_MAX_SCALES];
     *nscales = *nestimated = 0;
-    int ns = l->sampling ? scale_counts(&l->sample, se, sm, WPD_MAX_SCALES) : 0;
-    if (ns < 0)
-        return -1;
-    /* The sample's scale equal to the finest exact one (edges double
-     * exactly from first edges a power of two apart). */
-    int at = 0;
-    while (at < ns && se[at] < l->all.edge)
-        at++;
-    /* The ratio of the two counts at the finest exact scale estimates the
-     * share of voxels sampled only where those voxels nest in blocks: a
-     * voxel of several blocks counts as sampled when any of them is (with
-     * 8 blocks a voxel, 0.40 of the voxels against 1/16). */
-    int room = 0;
-    if (l->all.level <= BLOCK_LEVELS && at < ns && se[at] == l->all.edge &&
-        sm[at] >= WPD_LADDER_SAMPLE_MIN)
-        room = at < WPD_MAX_SCALES / 4 ? at : WPD_MAX_SCALES / 4;
-    int nall = scale_counts(&l->all, edge + room, m + room, WPD_MAX_SCALES - room);
+    double ae[WPD_MAX_SCALES];
+    uint64_t am[WPD_MAX_SCALES];
+    int level = l->all.level;
+    int nall = scale_counts(&l->all, ae, am, WPD_MAX_SCALES);
     if (nall < 0)
         return -1;
-    double ratio = room ? (double)m[room] / (double)sm[at] : 0;
-    for (int i = 0; i < room; i++) {
-        edge[i] = se[at - room + i];
-        m[i] = (uint64_t)llround((double)sm[at - room + i] * ratio);
+    /* Each sample's estimates, finest last; then they go first. */
+    double fe = nall ? ae[0] : 0, fm = nall ? (double)am[0] : 0;
+    double ee[WPD_LADDER_SAMPLES][WPD_MAX_SCALES];
+    uint64_t em[WPD_LADDER_SAMPLES][WPD_MAX_SCALES];
+    int ne[WPD_LADDER_SAMPLES] = {0}, est = 0;
+    for (int j = 0; j < l->sampling; j++) {
+        int k = nall ? sample_estimates(&l->sample[j], level, &fe, &fm, ee[j], em[j],
+                                        WPD_MAX_SCALES / 4)
+                     : 0;
+        if (k < 0)
+            return -1;
+        if (k == 0)
+            break;
+        ne[j] = k;
+        est += k;
+        level = l->sample[j].level;
     }
-    *nscales = room + nall;
-    *nestimated = room;
+    for (int j = l->sampling - 1; j >= 0; j--)
+        for (int i = 0; i < ne[j]; i++, (*nscales)++)
+            edge[*nscales] = ee[j][i], m[*nscales] = em[j][i];
+    for (int i = 0; i < nall && *nscales < WPD_MAX_SCALES; i++, (*nscales)++)
+        edge[*nscales] = ae[i], m[*nscales] = am[i];
+    *nestimated = est;
     return 0;
 }
 
@@ -254,13 +314,15 @@ static size_t scale_pack(const wpd_ladder_scale *s, uint64_t *out)
 
 int wpd_ladder_pack(const wpd_ladder *l, uint8_t **buf, size_t *n)
 {
-    size_t words = 2 + l->all.set.count + (l->sampling ? 2 + l->sample.set.count : 0);
+    size_t words = 2 + l->all.set.count;
+    for (int j = 0; j < l->sampling; j++)
+        words += 2 + l->sample[j].set.count;
     uint64_t *out = malloc(words * sizeof *out);
     if (!out)
         return -1;
     size_t used = scale_pack(&l->all, out);
-    if (l->sampling)
-        used += scale_pack(&l->sample, out + used);
+    for (int j = 0; j < l->sampling; j++)
+        used += scale_pack(&l->sample[j], out + used);
     *buf = (uint8_t *)out;
     *n = used * sizeof *out;
     return 0;
@@ -302,8 +364,8 @@ int wpd_ladder_merge_packed(wpd_ladder *into, const uint8_t *buf, size_t n)
     memcpy(words, buf, n); /* aligned */
     into->last_block = WPD_VOXEL_KEY_EMPTY;
     int rc = scale_merge_packed(&into->all, words, nwords, &at, into->cap);
-    if (rc == 0 && into->sampling)
-        rc = scale_merge_packed(&into->sample, words, nwords, &at, into->cap);
+    for (int j = 0; rc == 0 && j < into->sampling; j++)
+        rc = scale_merge_packed(&into->sample[j], words, nwords, &at, into->cap);
     if (rc == 0 && at != nwords)
         rc = -1;
     free(words);
@@ -313,8 +375,11 @@ int wpd_ladder_merge_packed(wpd_ladder *into, const uint8_t *buf, size_t n)
 void wpd_ladder_free(wpd_ladder *l)
 {
     wpd_voxel_set_free(&l->all.set);
-    wpd_voxel_set_free(&l->sample.set);
     free(l->all.recent);
-    free(l->sample.recent);
-    l->all.recent = l->sample.recent = NULL;
+    l->all.recent = NULL;
+    for (int j = 0; j < WPD_LADDER_SAMPLES; j++) {
+        wpd_voxel_set_free(&l->sample[j].set);
+        free(l->sample[j].recent);
+        l->sample[j].recent = NULL;
+    }
 }

@@ -287,13 +287,14 @@ static int scan_pass(wpd_cloud *cloud, const wpd_par *par, wpd_scan *s, size_t v
 {
     init_grid(s);
     size_t cells = (size_t)s->dim[0] * s->dim[1] * s->dim[2];
-    /* A lane's own: its ladder (two sets, each up to 32 bytes a key while
-     * coarsening), density grid, batch and cloud. */
-    size_t sets = wpd_ladder_samples(voxel_cap, s->wanted_voxels) ? 2 : 1;
+    /* A lane's own: its ladder (the exact set and the samples' sets, each
+     * up to 32 bytes a key while coarsening), density grid, batch and
+     * cloud. */
+    size_t sets = 1 + (size_t)wpd_ladder_samples(voxel_cap, s->wanted_voxels);
     size_t per_thread =
         sets * 32 * voxel_cap + cells * sizeof *s->density + wpd_pass_lane_bytes(cloud);
     /* The budget's fixed share holds the first lane's exact set; its
-     * sampled set comes out of the room of the others. */
+     * sampled sets come out of the room of the others. */
     size_t first_extra = (sets - 1) * 32 * voxel_cap;
     room = room > first_extra ? room - first_extra : 0;
     threads = wpd_threads_within(threads, room, per_thread);

@@ -61,7 +61,7 @@ typedef struct wpd_scan {
  * bytes beside the first thread's working set (wpd_threads_within, budget.h).
  * paper_frac: the paper's voxel edge over the longest side, or 0 when the
  * paper's estimate is not wanted (its count costs a bitmap write a point).
- * voxel_cap: the most voxel keys each of a thread's two ladder sets holds
+ * voxel_cap: the most voxel keys each of a thread's ladder sets holds
  * at once (memory: ~32 bytes each); wanted_voxels: about how many voxels
  * the radius will occupy (the target over the density), which decides
  * whether the sampled finer scales are counted (wpd_ladder_init).

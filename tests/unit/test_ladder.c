@@ -141,11 +141,12 @@ TEST(ladder_merge_packed_equals_one_ladder)
         xyz[3 * i + 2] = i < N / 2 ? 30 + 20 * sin(u[0] / 40) * cos(u[1] / 25) : u[2] / 5;
     }
     const double extent[3] = {300, 300, 60};
-    for (int sampled = 0; sampled <= 1; sampled++) {
-        /* Without the sample: a small cap, so the parts coarsen; with it, a
-         * cap whose sampled blocks hold enough voxels for an estimate. */
+    for (int sampled = 0; sampled <= 2; sampled++) {
+        /* Without the samples: a small cap, so the parts coarsen; with one
+         * or two, a cap whose sampled blocks hold enough voxels for an
+         * estimate. */
         size_t cap = sampled ? 1 << 16 : 4096;
-        double wanted = sampled ? 1e7 : 100, e[2][WPD_MAX_SCALES];
+        double wanted = sampled == 2 ? 1e7 : sampled ? 1e5 : 100, e[2][WPD_MAX_SCALES];
         uint64_t m[2][WPD_MAX_SCALES];
         int n[2], k[2];
         wpd_ladder one, part[PARTS];
@@ -177,7 +178,7 @@ TEST(ladder_merge_packed_equals_one_ladder)
         CHECK(wpd_ladder_finish(&part[0], e[1], m[1], &n[1], &k[1]) == 0);
         CHECK_MSG(n[0] == n[1] && k[0] == k[1], "sampled %d: %d/%d scales, %d/%d estimated",
                   sampled, n[0], n[1], k[0], k[1]);
-        CHECK(sampled == (k[0] > 0));
+        CHECK((sampled > 0) == (k[0] > 0));
         for (int i = 0; i < n[0] && i < n[1]; i++)
             CHECK_MSG(e[0][i] == e[1][i] && m[0][i] == m[1][i], "scale %d: %g %llu / %g %llu", i,
                       e[0][i], (unsigned long long)m[0][i], e[1][i], (unsigned long long)m[1][i]);
@@ -189,11 +190,12 @@ TEST(ladder_merge_packed_equals_one_ladder)
 }
 
 /* The scales finer than the exact ladder's, estimated from the sampled
- * blocks, agree with exact counts on a surface; a target the exact scales
- * can hold gets no estimate, and the exact counts are the same either way. */
+ * blocks (one sample ladder, then two), agree with exact counts on a
+ * surface; a target the exact scales can hold gets no estimate, and the
+ * exact counts are the same either way. */
 TEST(ladder_sample_estimates_fine_scales)
 {
-    enum { N = 2000000, CAP = 1 << 16 };
+    enum { N = 4000000, CAP = 1 << 16 };
     double *xyz = malloc(3 * (size_t)N * sizeof *xyz);
     uint64_t s = 11;
     for (size_t i = 0; i < N; i++) {
@@ -204,28 +206,36 @@ TEST(ladder_sample_estimates_fine_scales)
         xyz[3 * i + 2] = 20 + 10 * sin(u[0] / 60) * cos(u[1] / 45); /* a rolling surface */
     }
     const double extent[3] = {400, 400, 40};
-    double e[2][WPD_MAX_SCALES];
-    uint64_t m[2][WPD_MAX_SCALES];
-    int n[2], k[2];
-    for (int run = 0; run < 2; run++) {
+    const double wanted[3] = {1000, 1e5, 1e9};
+    double e[3][WPD_MAX_SCALES];
+    uint64_t m[3][WPD_MAX_SCALES];
+    int n[3], k[3];
+    for (int run = 0; run < 3; run++) {
         wpd_ladder l;
-        CHECK(wpd_ladder_init(&l, extent, N, CAP, run ? 1e9 : 1000) == 0);
+        CHECK(wpd_ladder_init(&l, extent, N, CAP, wanted[run]) == 0);
+        CHECK(l.sampling == run);
         for (size_t i = 0; i < N; i++)
             CHECK(wpd_ladder_put(&l, xyz + 3 * i) == 0);
         CHECK(wpd_ladder_finish(&l, e[run], m[run], &n[run], &k[run]) == 0);
         wpd_ladder_free(&l);
     }
-    CHECK_MSG(k[0] == 0 && k[1] == 2, "estimated scales %d and %d", k[0], k[1]);
-    CHECK(n[1] == n[0] + k[1]);
-    for (int i = 0; i < n[0] && n[1] == n[0] + k[1]; i++)
-        CHECK(e[0][i] == e[1][i + k[1]] && m[0][i] == m[1][i + k[1]]);
-    for (int i = 0; i < k[1]; i++) {
+    CHECK_MSG(k[0] == 0 && k[1] == 2 && k[2] == 4, "estimated scales %d, %d and %d", k[0],
+              k[1], k[2]);
+    for (int run = 1; run < 3; run++) {
+        CHECK(n[run] == n[0] + k[run]);
+        for (int i = 0; i < n[0] && n[run] == n[0] + k[run]; i++)
+            CHECK(e[0][i] == e[run][i + k[run]] && m[0][i] == m[run][i + k[run]]);
+    }
+    /* The second sample's ladder gives the first's scales as they were. */
+    for (int i = 0; i < k[1] && k[2] == k[1] + 2; i++)
+        CHECK(e[1][i] == e[2][i + 2] && m[1][i] == m[2][i + 2]);
+    for (int i = 0; i < k[2]; i++) {
         uint64_t exact = 0;
         wpd_error err = {0};
-        CHECK(wpd_voxel_counts(xyz, N, &e[1][i], 1, &exact, 2, &err) == 0);
-        double rel = (double)m[1][i] / (double)exact - 1;
-        CHECK_MSG(fabs(rel) < 0.05, "edge %g: estimate %llu, exact %llu", e[1][i],
-                  (unsigned long long)m[1][i], (unsigned long long)exact);
+        CHECK(wpd_voxel_counts(xyz, N, &e[2][i], 1, &exact, 2, &err) == 0);
+        double rel = (double)m[2][i] / (double)exact - 1;
+        CHECK_MSG(fabs(rel) < 0.05, "edge %g: estimate %llu, exact %llu", e[2][i],
+                  (unsigned long long)m[2][i], (unsigned long long)exact);
     }
     free(xyz);
 }
