@@ -3,8 +3,8 @@
  *
  * A run is given a memory budget (--mem). Before any work it is split into:
  *   fixed      48 MB: one thread's voxel ladder and batches, the plan, the
- *              runtime (a large target's sampled ladder set, up to 32 MB
- *              more, comes out of the room of the scan's other lanes);
+ *              runtime (a large target's sampled ladder sets, up to 32 MB
+ *              each, come out of the room of the scan's other lanes);
  *   spill      32 MB of write buffers for all tiles together (tiled runs);
  *   samples    nothing over all samples: a tiled run keeps them in
  *              files (the sample store, the exact count's fields, the
@@ -54,9 +54,12 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp);
 size_t wpd_budget_min(uint64_t target, uint64_t points, int sharp);
 
 /* Budget needed to hold a cloud of n points as one tile in memory (all
- * threads on it): measured 380 MB peak for the 2.27 M-point NC Raleigh scan
- * to 100 K with 38-byte records. */
-size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size);
+ * threads on it) for target samples: a point costs its record, 12 bytes
+ * of the run's own and what a tile's point costs
+ * (wpd_budget_tile_point_bytes). Measured on the 2.27 M-point NC Raleigh
+ * scan with 38-byte records: 380 MB peak to 100 K (the model 436), 905 MB
+ * to 50 % (the model 935: the smoothing state of 1.13 M samples). */
+size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size, uint64_t target, int sharp);
 
 /* Home points a tile may hold so that WPD_TILES_IN_FLIGHT of them fit
  * beside the fixed part and the spill buffers (at least

@@ -128,6 +128,20 @@ def test_memory_budget_holds_whatever_the_threads(n):
     assert filecmp.cmp("m1.las", "m8.las", shallow=False)
 
 
+@pytest.mark.serial
+@pytest.mark.rss
+def test_a_cloud_held_in_memory_for_few_samples_is_tiled_for_many():
+    # Held in memory, a cloud costs its points and, for a large target, the
+    # smoothing state of its samples: the same budget that holds it to 1 %
+    # sends it through tiles to 50 %, and the peak stays within it.
+    wpd("synth", "-n", 400000, "--seed", 5, "-o", "h.las")
+    few = run("h.las", "few.las", 4000, "--mem", "150M")
+    many = run("h.las", "many.las", 200000, "--mem", "150M")
+    assert few["tiles"]["count"] == 0 and many["tiles"]["count"] > 1, (few["tiles"], many["tiles"])
+    if not sanitized():
+        assert many["peak_rss_bytes"] <= 150 << 20, many["peak_rss_bytes"]
+
+
 def loosen_las_bounds(src, dst, grow):
     """Copies a LAS file with its header box widened by `grow` on x and y."""
     import struct
