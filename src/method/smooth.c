@@ -256,6 +256,10 @@ static void project_on_surface(const wpd_grid *surface, const frames *f, size_t 
     uint32_t near[WPD_KNN_MAX];
     double d2[WPD_KNN_MAX];
     int got = wpd_knn_slots(surface, p, f->k, WPD_NO_SELF, INFINITY, 1.05 * f->rho[o], near, d2);
+    /* The same query tells the sample's memo about the input around p:
+     * holding the projected point on the surface mostly needs no query of
+     * its own then (smooth_surface.h). */
+    wpd_surface_memo_fill(f->memo + o, p, d2, got);
     if (got < 3)
         return;
     f->rho[o] = (float)sqrt(d2[got - 1]);

@@ -33,6 +33,20 @@ enum { SPACING_K = 6 };
  * neighbours give the spacing. memo (may be NULL) is refilled from the
  * query where it found 7 points. Returns the distance from p, or -1 if the
  * grid is empty. */
+void wpd_surface_memo_fill(wpd_surface_memo *memo, const double at[3], const double *d2,
+                           int got)
+{
+    if (!memo || got < SPACING_K)
+        return;
+    double sum = 0;
+    for (int j = 0; j < SPACING_K; j++)
+        sum += sqrt(d2[j]);
+    memcpy(memo->at, at, sizeof memo->at);
+    memo->d0 = sqrt(d2[0]);
+    memo->m6 = sum / SPACING_K;
+    memo->valid = 1;
+}
+
 static double nearest_with_spacing(const wpd_grid *surface, const double p[3], uint32_t *near,
                                    double *spacing, wpd_surface_memo *memo)
 {
@@ -44,17 +58,11 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
         return -1;
     *near = nb[0];
     double d0 = sqrt(d2[0]);
+    wpd_surface_memo_fill(memo, p, d2, got);
     if (got == SPACING_K + 1) {
         double mean = 0;
-        for (int j = 1; j < SPACING_K; j++)
+        for (int j = 1; j <= SPACING_K; j++)
             mean += sqrt(d2[j]);
-        if (memo) {
-            memcpy(memo->at, p, sizeof memo->at);
-            memo->d0 = d0;
-            memo->m6 = (d0 + mean) / SPACING_K;
-            memo->valid = 1;
-        }
-        mean += sqrt(d2[SPACING_K]);
         double bound = (mean / SPACING_K - d0) * (1 - 1e-9);
         if (d0 <= bound) {
             *spacing = bound;

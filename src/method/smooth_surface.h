@@ -45,6 +45,13 @@ typedef struct wpd_surface_memo {
     int valid;
 } wpd_surface_memo;
 
+/* Refills memo from a query at `at` that found the got input points nearest
+ * to it, at squared distances d2 (ascending): any query of 6 or more fills
+ * it (projecting a sample onto the surface asks for 13), fewer leave it as
+ * it was. */
+void wpd_surface_memo_fill(wpd_surface_memo *memo, const double at[3], const double *d2,
+                           int got);
+
 /* Moves p, rounded to the output's lattice, until it is within the input's
  * local spacing of its nearest input point (pulled straight towards that
  * point; after a few rounds onto the point itself). memo (may be NULL):

@@ -362,6 +362,46 @@ TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
     cloud_free(&c);
 }
 
+TEST(a_memo_filled_by_a_projection_query_spares_holds_without_changing_them)
+{
+    /* As smoothing projects a moved sample: a 13-nearest query at p fills
+     * the memo (wpd_surface_memo_fill), then the point a little off p
+     * (the projection, now and then farther) is held on the surface: the
+     * same places as without the memo, and many holds spared. */
+    cloud c = sheet(60, 1.0, 0, 9);
+    wpd_error err;
+    wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err);
+    double res[3] = {0.001, 0.001, 0.001};
+    uint64_t seed = 5;
+    int calls = 0, spared = 0, pulled = 0, differ = 0;
+    for (int i = 0; i < 3000; i++) {
+        /* Every other point near the sheet and moved a little (spared),
+         * the others off it and moved farther (borderline, pulled). */
+        double lift = i % 2 ? 0.4 : 2, off = i % 2 ? 0.1 : 1.5 * unit(&seed);
+        double p[3] = {10 + 40 * unit(&seed), 10 + 40 * unit(&seed), lift * (unit(&seed) - 0.5)};
+        uint32_t nb[13];
+        double d2[13];
+        int got = wpd_knn_slots(&c.surface, p, 13, WPD_NO_SELF, INFINITY, 0, nb, d2);
+        wpd_surface_memo memo = {{0, 0, 0}, 0, 0, 0};
+        wpd_surface_memo_fill(&memo, p, d2, got);
+        double with[3], without[3];
+        for (int a = 0; a < 3; a++)
+            with[a] = without[a] = p[a] + off * (unit(&seed) - 0.5);
+        wpd_surface_memo before = memo;
+        int a = wpd_hold_on_surface(&c.surface, res, &memo, with);
+        int b = wpd_hold_on_surface(&c.surface, res, NULL, without);
+        differ += a != b || memcmp(with, without, sizeof with) != 0;
+        spared += memcmp(&before, &memo, sizeof memo) == 0;
+        pulled += b;
+        calls++;
+    }
+    CHECK_MSG(differ == 0, "%d of %d places differ with the memo", differ, calls);
+    CHECK_MSG(spared > calls / 5 && spared < calls, "the memo spared %d of %d holds", spared,
+              calls);
+    CHECK_MSG(pulled > 0, "no place was pulled back to the surface");
+    cloud_free(&c);
+}
+
 /* Per slot of c's surface, the sample strictly nearest to its point, or
  * WPD_COVER_NO_HINT (a tie); only every `every`-th slot is named. */
 static uint32_t *nearest_by_slot(const cloud *c, int every)
