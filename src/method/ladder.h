@@ -38,8 +38,9 @@
 #include "core/voxel_set.h"
 #include "method/radius.h"
 
-#define WPD_LADDER_KEYS (1u << 20) /* keys held at once by each of the two
-                                      sets: 16-24 MB each */
+#define WPD_LADDER_KEYS (1u << 20) /* keys held at once by each set (the
+                                      exact one and each sample's): 16-24 MB
+                                      each, 32 while coarsening */
 
 /* One set of occupied voxels, coarsened as it grows. */
 typedef struct wpd_ladder_scale {
@@ -64,8 +65,8 @@ typedef struct wpd_ladder {
     wpd_ladder_scale sample[WPD_LADDER_SAMPLES]; /* the points of the sampled
                                  blocks, 4 and 16 x finer */
     double block_inv[WPD_LADDER_SAMPLES]; /* 1 / each sample's blocks' edge */
-    uint64_t last_block;      /* the last point's first-level block, and how many
-                                 samples hold it */
+    uint64_t last_block;      /* the last point's first-level block, and whether
+                                 the first sample holds it */
     int last_depth;
     int sampling;             /* how many sample ladders run */
     size_t cap;               /* keys allowed per set before coarsening */

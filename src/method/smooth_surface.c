@@ -22,17 +22,6 @@
  * every position a move tries). */
 enum { SPACING_K = 6 };
 
-/* Input point nearest to p (its slot in *near) and, in *spacing, the
- * input's local spacing there - or, where that settles the test the caller
- * makes (distance <= spacing), a lower bound of it found on the way: with
- * d0 the distance from p to its nearest input point q and d1..d6 to the
- * next six, each of q's six nearest neighbours x has |q x| >= |p x| - d0,
- * and the six nearest to p other than q are no farther from p than they
- * are, so spacing(q) >= mean(d1..d6) - d0. When d0 is below that bound
- * (the margin covers rounding) one query suffices; otherwise q's own
- * neighbours give the spacing. memo (may be NULL) is refilled from the
- * query where it found 7 points. Returns the distance from p, or -1 if the
- * grid is empty. */
 void wpd_surface_memo_fill(wpd_surface_memo *memo, const double at[3], const double *d2,
                            int got)
 {
@@ -47,6 +36,17 @@ void wpd_surface_memo_fill(wpd_surface_memo *memo, const double at[3], const dou
     memo->valid = 1;
 }
 
+/* Input point nearest to p (its slot in *near) and, in *spacing, the
+ * input's local spacing there - or, where that settles the test the caller
+ * makes (distance <= spacing), a lower bound of it found on the way: with
+ * d0 the distance from p to its nearest input point q and d1..d6 to the
+ * next six, each of q's six nearest neighbours x has |q x| >= |p x| - d0,
+ * and the six nearest to p other than q are no farther from p than they
+ * are, so spacing(q) >= mean(d1..d6) - d0. When d0 is below that bound
+ * (the margin covers rounding) one query suffices; otherwise q's own
+ * neighbours give the spacing. memo (may be NULL) is refilled from the
+ * query (wpd_surface_memo_fill: when it found 6 points or more). Returns
+ * the distance from p, or -1 if the grid is empty. */
 static double nearest_with_spacing(const wpd_grid *surface, const double p[3], uint32_t *near,
                                    double *spacing, wpd_surface_memo *memo)
 {

@@ -39,9 +39,11 @@ size_t wpd_budget_min(uint64_t target, uint64_t points, int sharp)
                wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, points), sharp);
 }
 
-size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size, uint64_t target, int sharp)
+size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size, uint64_t target, int sharp,
+                                  int smooth)
 {
-    size_t point = wpd_budget_tile_point_bytes(wpd_budget_sample_fraction(target, n), sharp);
+    double f = smooth ? wpd_budget_sample_fraction(target, n) : 0;
+    size_t point = wpd_budget_tile_point_bytes(f, sharp);
     return (size_t)n * (record_size + 12 + point) + ((size_t)32 << 20);
 }
 

@@ -54,12 +54,15 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp);
 size_t wpd_budget_min(uint64_t target, uint64_t points, int sharp);
 
 /* Budget needed to hold a cloud of n points as one tile in memory (all
- * threads on it) for target samples: a point costs its record, 12 bytes
- * of the run's own and what a tile's point costs
- * (wpd_budget_tile_point_bytes). Measured on the 2.27 M-point NC Raleigh
- * scan with 38-byte records: 380 MB peak to 100 K (the model 436), 905 MB
- * to 50 % (the model 935: the smoothing state of 1.13 M samples). */
-size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size, uint64_t target, int sharp);
+ * threads on it) for target samples, smoothed or not: a point costs its
+ * record, 12 bytes of the run's own and what a tile's point costs
+ * (wpd_budget_tile_point_bytes; without smoothing, at no sample fraction:
+ * the Poisson scratch). A fit, like the tile model it leans on: measured
+ * on the 2.27 M-point NC Raleigh scan with 38-byte records, 380 MB peak to
+ * 100 K (the model 436), 917 MB to 50 % (the model 935: the smoothing
+ * state of 1.13 M samples). */
+size_t wpd_budget_in_memory_bytes(uint64_t n, uint32_t record_size, uint64_t target, int sharp,
+                                  int smooth);
 
 /* Home points a tile may hold so that WPD_TILES_IN_FLIGHT of them fit
  * beside the fixed part and the spill buffers (at least

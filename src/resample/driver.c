@@ -30,9 +30,11 @@ static uint32_t record_size_of(const wpd_cloud *cloud)
 
 int wpd_resample_in_memory(const wpd_cloud *cloud, const wpd_resample_options *opt)
 {
+    const wpd_params *p = &opt->params;
+    int smooth = p->smooth && p->iterations + p->even_iterations > 0;
     return opt->min_tiles <= 1 &&
            wpd_budget_in_memory_bytes(wpd_cloud_count(cloud), record_size_of(cloud),
-                                      opt->target, opt->params.sharp) <= opt->mem_bytes;
+                                      opt->target, p->sharp, smooth) <= opt->mem_bytes;
 }
 
 /* Occupied voxels at edge l, interpolated log-log between the two counted

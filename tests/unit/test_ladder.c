@@ -226,6 +226,29 @@ TEST(ladder_sample_estimates_fine_scales)
         for (int i = 0; i < n[0] && n[run] == n[0] + k[run]; i++)
             CHECK(e[0][i] == e[run][i + k[run]] && m[0][i] == m[run][i + k[run]]);
     }
+    /* Both samples' sets travel: counted in three parts, two of them packed
+     * and merged (the ranks of an MPI run), the same counts and estimates. */
+    wpd_ladder part[3];
+    for (int q = 0; q < 3; q++)
+        CHECK(wpd_ladder_init(&part[q], extent, N, CAP, wanted[2]) == 0);
+    for (size_t i = 0; i < N; i++)
+        CHECK(wpd_ladder_put(&part[i < N / 7 ? 0 : i < N / 2 ? 1 : 2], xyz + 3 * i) == 0);
+    for (int q = 1; q < 3; q++) {
+        uint8_t *buf = NULL;
+        size_t len = 0;
+        CHECK(wpd_ladder_pack(&part[q], &buf, &len) == 0);
+        CHECK(wpd_ladder_merge_packed(&part[0], buf, len) == 0);
+        free(buf);
+    }
+    double pe[WPD_MAX_SCALES];
+    uint64_t pm[WPD_MAX_SCALES];
+    int pn, pk;
+    CHECK(wpd_ladder_finish(&part[0], pe, pm, &pn, &pk) == 0);
+    CHECK_MSG(pn == n[2] && pk == k[2], "merged: %d scales, %d estimated", pn, pk);
+    for (int i = 0; i < pn && pn == n[2]; i++)
+        CHECK(pe[i] == e[2][i] && pm[i] == m[2][i]);
+    for (int q = 0; q < 3; q++)
+        wpd_ladder_free(&part[q]);
     /* The second sample's ladder gives the first's scales as they were. */
     for (int i = 0; i < k[1] && k[2] == k[1] + 2; i++)
         CHECK(e[1][i] == e[2][i + 2] && m[1][i] == m[2][i + 2]);
