@@ -308,7 +308,9 @@ static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[
 void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t *skip,
                               size_t npts, int threads, uint32_t *nearest)
 {
-    if (nearest)
+    /* Every point handed to add_one gets its own entry there; only points
+     * that are not (skipped, or no sample left) need the mark first. */
+    if (nearest && (skip || e->live == 0))
         for (size_t i = 0; i < npts; i++)
             nearest[i] = WPD_ELIMINATE_NO_NEAREST;
     if (e->live == 0)

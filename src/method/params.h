@@ -34,4 +34,11 @@ typedef struct wpd_params {
 /* Fills p with the defaults above. */
 void wpd_params_default(wpd_params *p);
 
+/* Whether a run with p moves its samples at all: smoothing on, with some
+ * Voronoi or even-spacing step to take. */
+static inline int wpd_params_smooths(const wpd_params *p)
+{
+    return p->smooth && p->iterations + p->even_iterations > 0;
+}
+
 #endif

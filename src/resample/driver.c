@@ -31,10 +31,10 @@ static uint32_t record_size_of(const wpd_cloud *cloud)
 int wpd_resample_in_memory(const wpd_cloud *cloud, const wpd_resample_options *opt)
 {
     const wpd_params *p = &opt->params;
-    int smooth = p->smooth && p->iterations + p->even_iterations > 0;
     return opt->min_tiles <= 1 &&
            wpd_budget_in_memory_bytes(wpd_cloud_count(cloud), record_size_of(cloud),
-                                      opt->target, p->sharp, smooth) <= opt->mem_bytes;
+                                      opt->target, p->sharp, wpd_params_smooths(p)) <=
+               opt->mem_bytes;
 }
 
 /* Occupied voxels at edge l, interpolated log-log between the two counted
@@ -224,7 +224,7 @@ static int finish(wpd_run *run, wpd_error *err)
 static int poisson_phase(wpd_run *run, wpd_error *err)
 {
     const wpd_params *p = run->p;
-    int surface = run->res->in_memory && p->smooth && p->iterations + p->even_iterations > 0;
+    int surface = run->res->in_memory && wpd_params_smooths(p);
     if (surface && !p->sharp) {
         const wpd_tile_data *d = &run->tiles.mem;
         if (wpd_grid_build_knn(&run->surface, d->xyz, NULL, d->n, p->k, run->surface_dk,

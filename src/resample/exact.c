@@ -133,10 +133,8 @@ static int cost_view_build(const wpd_run *run, int t, double dist, int labelled,
  * context there). */
 static int keeps_nearest(const wpd_run *run, const wpd_tile_data *d)
 {
-    const wpd_params *p = run->p;
     return run->res->in_memory && run->plan.ntiles == 1 && !run->owner && run->fixed.n == 0 &&
-           p->smooth && p->iterations + p->even_iterations > 0 && run->surface.n == d->n &&
-           d->n > 0;
+           wpd_params_smooths(run->p) && run->surface.n == d->n && d->n > 0;
 }
 
 /* The nearest sample of each input point, from the view's numbering

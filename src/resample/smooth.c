@@ -81,7 +81,7 @@ done:
 
 int wpd_smooth_phase(wpd_run *run, wpd_error *err)
 {
-    if (!run->p->smooth || run->p->iterations + run->p->even_iterations <= 0)
+    if (!wpd_params_smooths(run->p))
         return 0;
     run->res->moved = 1;
     if (wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, NULL, NULL, err))
