@@ -324,6 +324,39 @@ TEST(a_point_is_on_the_output_lattice_but_for_floating_error_only)
               "no lattice: the point moved or is off it");
 }
 
+/* What holding places on the surface with a memo and without it gave. */
+typedef struct hold_tally {
+    int calls, spared, pulled, differ;
+} hold_tally;
+
+/* Holds p on the surface with the memo and without it (that result into
+ * p) and tallies whether the two differ, whether the memo spared the
+ * query (valid, and left as it was) and whether p was pulled back. */
+static void hold_both(const wpd_grid *surface, wpd_surface_memo *memo, double p[3],
+                      hold_tally *t)
+{
+    static const double res[3] = {0.001, 0.001, 0.001};
+    double with[3];
+    memcpy(with, p, sizeof with);
+    wpd_surface_memo before = *memo;
+    int a = wpd_hold_on_surface(surface, res, memo, with);
+    int b = wpd_hold_on_surface(surface, res, NULL, p);
+    t->differ += a != b || memcmp(with, p, sizeof with) != 0;
+    t->spared += before.valid && memcmp(&before, memo, sizeof *memo) == 0;
+    t->pulled += b;
+    t->calls++;
+}
+
+/* The memo may only spare queries: no place differs, more than
+ * calls / share holds and not all are spared, some place is pulled. */
+static void check_tally(const hold_tally *t, int share, int *failures_)
+{
+    CHECK_MSG(t->differ == 0, "%d of %d places differ with the memo", t->differ, t->calls);
+    CHECK_MSG(t->spared > t->calls / share && t->spared < t->calls,
+              "the memo spared %d of %d holds", t->spared, t->calls);
+    CHECK_MSG(t->pulled > 0, "no place was pulled back to the surface");
+}
+
 TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
 {
     /* Samples walking over a jittered sheet in steps of up to a seventh of
@@ -332,9 +365,8 @@ TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
     cloud c = sheet(60, 1.0, 0, 7);
     wpd_error err;
     wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err);
-    double res[3] = {0.001, 0.001, 0.001};
     uint64_t seed = 11;
-    int calls = 0, spared = 0, pulled = 0, differ = 0;
+    hold_tally t = {0};
     for (int walk = 0; walk < 200; walk++) {
         wpd_surface_memo memo = {{0, 0, 0}, 0, 0, 0};
         double p[3] = {10 + 40 * unit(&seed), 10 + 40 * unit(&seed), 0};
@@ -342,23 +374,10 @@ TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
             double len = step % 10 == 9 ? 3.0 : 0.15;
             for (int a = 0; a < 3; a++)
                 p[a] += len * (unit(&seed) - 0.5) * (a == 2 ? 0.5 : 1);
-            double with[3], without[3];
-            memcpy(with, p, sizeof with);
-            memcpy(without, p, sizeof without);
-            wpd_surface_memo before = memo;
-            int a = wpd_hold_on_surface(&c.surface, res, &memo, with);
-            int b = wpd_hold_on_surface(&c.surface, res, NULL, without);
-            differ += a != b || memcmp(with, without, sizeof with) != 0;
-            spared += before.valid && memcmp(&before, &memo, sizeof memo) == 0;
-            pulled += b;
-            calls++;
-            memcpy(p, without, sizeof p);
+            hold_both(&c.surface, &memo, p, &t);
         }
     }
-    CHECK_MSG(differ == 0, "%d of %d places differ with the memo", differ, calls);
-    CHECK_MSG(spared > calls / 10 && spared < calls, "the memo spared %d of %d queries", spared,
-              calls);
-    CHECK_MSG(pulled > 0, "no place was pulled back to the surface");
+    check_tally(&t, 10, failures_);
     cloud_free(&c);
 }
 
@@ -371,9 +390,8 @@ TEST(a_memo_filled_by_a_projection_query_spares_holds_without_changing_them)
     cloud c = sheet(60, 1.0, 0, 9);
     wpd_error err;
     wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err);
-    double res[3] = {0.001, 0.001, 0.001};
     uint64_t seed = 5;
-    int calls = 0, spared = 0, pulled = 0, differ = 0;
+    hold_tally t = {0};
     for (int i = 0; i < 3000; i++) {
         /* Every other point near the sheet and moved a little (spared),
          * the others off it and moved farther (borderline, pulled). */
@@ -384,21 +402,12 @@ TEST(a_memo_filled_by_a_projection_query_spares_holds_without_changing_them)
         int got = wpd_knn_slots(&c.surface, p, 13, WPD_NO_SELF, INFINITY, 0, nb, d2);
         wpd_surface_memo memo = {{0, 0, 0}, 0, 0, 0};
         wpd_surface_memo_fill(&memo, p, d2, got);
-        double with[3], without[3];
+        double q[3];
         for (int a = 0; a < 3; a++)
-            with[a] = without[a] = p[a] + off * (unit(&seed) - 0.5);
-        wpd_surface_memo before = memo;
-        int a = wpd_hold_on_surface(&c.surface, res, &memo, with);
-        int b = wpd_hold_on_surface(&c.surface, res, NULL, without);
-        differ += a != b || memcmp(with, without, sizeof with) != 0;
-        spared += memcmp(&before, &memo, sizeof memo) == 0;
-        pulled += b;
-        calls++;
+            q[a] = p[a] + off * (unit(&seed) - 0.5);
+        hold_both(&c.surface, &memo, q, &t);
     }
-    CHECK_MSG(differ == 0, "%d of %d places differ with the memo", differ, calls);
-    CHECK_MSG(spared > calls / 5 && spared < calls, "the memo spared %d of %d holds", spared,
-              calls);
-    CHECK_MSG(pulled > 0, "no place was pulled back to the surface");
+    check_tally(&t, 5, failures_);
     cloud_free(&c);
 }
 
