@@ -148,14 +148,33 @@ static double energy(const step_view *sv, const double q[3], double floor, doubl
     return e;
 }
 
+/* Leaves out of cand[0..n) the input points exactly where the sample
+ * stands (its own point, until it first moves) and returns how many are
+ * left, in their order. Such a point can never be ranked: its sum is the
+ * sum of staying, which a point must beat. At a large fraction of the
+ * input the reach mostly holds nothing else (NC Raleigh to 50 %: 67 % of
+ * the plans; to 10 %: 44 %), and those plans then need no sum at all. */
+static int drop_where_it_stands(const wpd_grid *surface, const double p[3], uint32_t *cand,
+                                int n)
+{
+    int kept = 0;
+    for (int c = 0; c < n; c++) {
+        const double *q = surface->xyz + 3 * (size_t)cand[c];
+        if (!(q[0] == p[0] && q[1] == p[1] && q[2] == p[2]))
+            cand[kept++] = cand[c];
+    }
+    return kept;
+}
+
 int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t o,
                         const wpd_even_limits *lim, uint32_t slot[WPD_EVEN_TRIES])
 {
     const double *p = v->prev + 3 * o;
     const uint32_t *l = v->nb + o * (size_t)v->k;
     uint32_t cand[WPD_EVEN_CANDIDATES];
-    int got = wpd_knn_slots(surface, p, WPD_EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, lim->reach,
-                            cand, NULL);
+    int found = wpd_knn_slots(surface, p, WPD_EVEN_CANDIDATES, WPD_NO_SELF, lim->reach,
+                              lim->reach, cand, NULL);
+    int got = drop_where_it_stands(surface, p, cand, found);
     if (got == 0)
         return 0;
     step_view sv;

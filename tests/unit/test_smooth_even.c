@@ -85,7 +85,7 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
      * lists by brute force, input points around; for every sample the
      * step is checked against every candidate's sum evaluated literally. */
     uint64_t seed = 11;
-    int checked = 0, moved = 0, capped = 0;
+    int checked = 0, moved = 0, capped = 0, standing = 0;
     for (int trial = 0; trial < 20; trial++) {
         double pos[3 * (N + NCTX)], inp[3 * INPUT], spacing[N];
         wpd_even_nearest nearest[N];
@@ -95,6 +95,11 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
             pos[i] = 4 * unit(&seed);
         for (int i = 0; i < 3 * INPUT; i++)
             inp[i] = 4 * unit(&seed);
+        /* In every other trial half the samples stand on input points, as
+         * they do before their first move: a point where the sample stands
+         * is never ranked (its sum is staying's). */
+        for (int i = 0; trial % 2 && i < N / 2; i++)
+            memcpy(inp + 3 * (7 * i), pos + 3 * i, 3 * sizeof *inp);
         for (size_t o = 0; o < N; o++) {
             /* The K nearest by insertion (distinct random distances). */
             double best[K];
@@ -156,6 +161,7 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
                 candidate[next] = 1;
             }
             capped += within > WPD_EVEN_CANDIDATES;
+            standing += trial % 2 && o < N / 2;
             for (int c = -1; c < INPUT; c++) {
                 const double *q = c < 0 ? pos + 3 * o : inp + 3 * c;
                 if (c >= 0 && (!candidate[c] || dist(q, start) > 0.5))
@@ -199,6 +205,7 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
      * the cap is exercised. */
     CHECK_MSG(capped > checked / 10 && capped < checked, "%d of %d samples capped", capped,
               checked);
+    CHECK_MSG(standing == 10 * (N / 2), "%d samples standing on an input point", standing);
 }
 
 /* CV of the samples' mean distance to their 6 nearest (brute force). */
