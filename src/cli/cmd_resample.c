@@ -382,9 +382,11 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
     if (o->params.smooth)
         printf("  smoothing: %d iterations and %d even steps, %zu points fixed (open Voronoi "
                "cell), %zu pulled back to the input surface, %zu kept still (no surface around "
-               "them), %zu isolated, %zu moves shortened for spacing and cover\n",
+               "them), %zu isolated, %zu moves shortened for spacing and cover, %zu input "
+               "points' nearest samples from the exact count\n",
                o->params.iterations, o->params.even_iterations, r->open_cells,
-               r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves);
+               r->pulled_to_surface, r->non_surface, r->isolated, r->guarded_moves,
+               r->cover_hinted);
     if (o->params.sharp)
         printf("  sharp features: %llu input points labelled, %llu output points%s; labels "
                "computed %llu (only where the Poisson pass needs them)\n",

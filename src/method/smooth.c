@@ -354,11 +354,6 @@ static void mark_isolated(const wpd_smooth_input *in, frames *f, int threads)
  * iteration (iterate). */
 #define EVEN_REACH 0.35
 
-/* No sample ends farther than this (units of r) from where the Poisson
- * pass put it, whatever the iterations: the tiles rely on it (a tile's
- * context reaches 3 r past its box; resample/smooth.c). */
-#define WANDER_MAX 1.0
-
 /* A float32 PLY stores each coordinate to within r/2000 (cmd_resample
  * writes doubles where the float spacing is coarser than r/1000), which can
  * close a pair by up to 0.0017 r after the guard has judged it; LAS output
@@ -395,7 +390,7 @@ static int try_move(const wpd_smooth_input *in, frames *f, const guards *g,
     const double *s0 = f->start + 3 * o;
     double w2 = (q[0] - s0[0]) * (q[0] - s0[0]) + (q[1] - s0[1]) * (q[1] - s0[1]) +
                 (q[2] - s0[2]) * (q[2] - s0[2]);
-    double wander = WANDER_MAX * g->spacing.r;
+    double wander = WPD_SMOOTH_WANDER_MAX * g->spacing.r;
     if (w2 > wander * wander || !wpd_spacing_allows(&g->spacing, near, q) ||
         (g->cover.n && !wpd_cover_holds(&g->cover, o, q)))
         return 0;
@@ -467,7 +462,8 @@ static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double 
         f->tries[o] = 0;
         if (f->half && f->half[o])
             continue;
-        wpd_even_limits lim = {step_max, floor, f->start + 3 * o, WANDER_MAX * in->spacing};
+        wpd_even_limits lim = {step_max, floor, f->start + 3 * o,
+                               WPD_SMOOTH_WANDER_MAX * in->spacing};
         uint32_t onto[WPD_EVEN_TRIES];
         int tries = wpd_even_candidates(&v, in->surface, o, &lim, onto);
         /* Each point as the output will store it, and the cap covers them
@@ -566,6 +562,26 @@ static int even_step(int it, int voronoi, int even)
     return voronoi < even;
 }
 
+/* For the tests: the cover's first owners and bounds as a search finds
+ * them, against c's (which started from in->nearest). */
+static int check_cover(const wpd_smooth_input *in, const frames *f, const wpd_cover *c,
+                       int threads, wpd_error *err)
+{
+    wpd_cover searched;
+    if (wpd_cover_init(&searched, in->surface, f->pos, f->n, f->nctx, in->spacing, NULL, threads,
+                       err))
+        return -1;
+    size_t at = in->surface->n;
+    for (size_t s = 0; s < in->surface->n && at == in->surface->n; s++)
+        if (searched.owner[s] != c->owner[s] || searched.bound[s] != c->bound[s])
+            at = s;
+    wpd_cover_free(&searched);
+    if (at < in->surface->n)
+        return wpd_fail(err, WPD_E_INPUT, "smooth: input point %zu (slot) is owned by another "
+                        "sample when searched for than the nearest sample given", at);
+    return 0;
+}
+
 /* Everything before the iterations: frames, who stays, the coverage. */
 static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_stats *st,
                    int threads, wpd_error *err)
@@ -584,8 +600,10 @@ static int prepare(const wpd_smooth_input *in, frames *f, guards *g, wpd_smooth_
     if (!in->surface)
         return 0;
     wpd_cover_hint hint = {in->nearest, f->perm};
-    return wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx, in->spacing,
-                          in->nearest ? &hint : NULL, threads, err);
+    if (wpd_cover_init(&g->cover, in->surface, f->pos, f->n, f->nctx, in->spacing,
+                       in->nearest ? &hint : NULL, threads, err))
+        return -1;
+    return in->check_nearest && in->nearest ? check_cover(in, f, &g->cover, threads, err) : 0;
 }
 
 int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *err)
@@ -610,6 +628,7 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     if (prepare(in, &f, &g, stats, threads, err))
         goto done;
     memcpy(next + 3 * n, f.pos + 3 * n, 3 * in->nctx * sizeof *next);
+    stats->hinted = g.cover.hinted;
     double t1 = omp_get_wtime();
     stats->normals_seconds = t1 - t0;
     double total_move = 0, *prev = f.pos;

@@ -74,9 +74,18 @@ typedef struct wpd_smooth_input {
                                 WPD_SMOOTH_NO_NEAREST; or NULL. Where an earlier
                                 pass found these (the exact count), the coverage
                                 guard starts from them (the same result) */
+    int check_nearest;       /* tests: the cover's first owners are also searched
+                                for, and any difference from those nearest gives
+                                an error (WPD_E_INPUT) */
 } wpd_smooth_input;
 
 #define WPD_SMOOTH_NO_NEAREST UINT32_MAX
+
+/* No sample ends farther than this many spacings (r) from where it
+ * started, whatever the iterations: the tiles rely on it (a tile's context
+ * reaches 3 r past its box, resample/smooth.c; the exact count's nearest
+ * samples, resample/hints.h). */
+#define WPD_SMOOTH_WANDER_MAX 1.0
 
 typedef struct wpd_smooth_stats {
     size_t open_cells;       /* samples kept fixed for an open cell (last iteration) */
@@ -90,6 +99,8 @@ typedef struct wpd_smooth_stats {
     size_t refused;          /* moves the guards refused altogether */
     size_t pulled_to_surface; /* samples pulled back to within the input's local
                                  spacing of the input (see smooth.c) */
+    size_t hinted;           /* input points whose first owner in the cover came from
+                                in->nearest */
     double mean_move;        /* mean distance moved per sample over all iterations,
                                 in units of spacing */
     double normals_seconds;  /* neighbour search and normals */

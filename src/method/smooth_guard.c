@@ -188,13 +188,15 @@ static uint32_t hinted_owner(const order_hint *hint, uint32_t s)
  * A point the hint names its nearest sample for takes that one (the
  * search would find it: it is strictly nearest); the others share their
  * candidates, gathered once and copied side by side (a point with no
- * candidate within tau, in a hole, asks the grid). */
-static void owners_of_group(const wpd_grid *samples, const double *start,
+ * candidate within tau, in a hole, asks the grid). Returns how many points
+ * the hint settled. */
+static size_t owners_of_group(const wpd_grid *samples, const double *start,
                             const wpd_grid *surface, const order_hint *hint, uint32_t b,
                             uint32_t e, const double lo[3], const double hi[3], double tau,
                             uint32_t *owner, float *bound)
 {
     int left = hint ? 0 : (int)(e - b);
+    size_t hinted = 0;
     for (uint32_t s = b; hint && s < e; s++) {
         const double *x = surface->xyz + 3 * (size_t)s;
         uint32_t id = hinted_owner(hint, s);
@@ -206,9 +208,10 @@ static void owners_of_group(const wpd_grid *samples, const double *start,
         const double *q = start + 3 * (size_t)id;
         double dx = q[0] - x[0], dy = q[1] - x[1], dz = q[2] - x[2];
         set_owner(samples, x, tau, dx * dx + dy * dy + dz * dz, id, owner + s, bound + s);
+        hinted++;
     }
     if (left == 0)
-        return;
+        return hinted;
     uint32_t cand[GROUP_CANDIDATES];
     group_cands c;
     int nc = group_candidates(samples, lo, hi, tau, cand);
@@ -228,16 +231,19 @@ static void owners_of_group(const wpd_grid *samples, const double *start,
         nearest_of_group(&c, x, &best, &id);
         set_owner(samples, x, tau, best, id, owner + s, bound + s);
     }
+    return hinted;
 }
 
 /* Owners of the input points in slots b..e-1. The input is some 20 times
  * the samples, and this is most of the cost of the coverage: consecutive
  * slots (neighbours in space: the grid's order) are taken in groups that
- * fit in a box of tau/2 and share one candidate search. */
-static void owners_of_block(const wpd_grid *samples, const double *start,
+ * fit in a box of tau/2 and share one candidate search. Returns how many
+ * points the hint settled. */
+static size_t owners_of_block(const wpd_grid *samples, const double *start,
                             const wpd_grid *surface, const order_hint *hint, uint32_t b,
                             uint32_t e, double tau, uint32_t *owner, float *bound)
 {
+    size_t hinted = 0;
     while (b < e) {
         const double *x = surface->xyz + 3 * (size_t)b;
         double lo[3] = {x[0], x[1], x[2]}, hi[3] = {x[0], x[1], x[2]};
@@ -255,9 +261,11 @@ static void owners_of_block(const wpd_grid *samples, const double *start,
             memcpy(lo, l, sizeof lo);
             memcpy(hi, h, sizeof hi);
         }
-        owners_of_group(samples, start, surface, hint, b, t, lo, hi, tau, owner, bound);
+        hinted +=
+            owners_of_group(samples, start, surface, hint, b, t, lo, hi, tau, owner, bound);
         b = t;
     }
+    return hinted;
 }
 
 int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, size_t n,
@@ -287,11 +295,14 @@ int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, s
                      hint ? malloc((n ? n : 1) * sizeof *oh.order) : NULL};
     for (size_t o = 0; oh.order && o < n; o++)
         oh.order[hint->perm[o]] = (uint32_t)o;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    size_t hinted = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) reduction(+ : hinted)
     for (size_t b = 0; b < surface->n; b += BLOCK_POINTS)
-        owners_of_block(&g, start, surface, oh.order ? &oh : NULL, (uint32_t)b,
-                        (uint32_t)(surface->n - b < BLOCK_POINTS ? surface->n : b + BLOCK_POINTS),
-                        tau, c->owner, c->bound);
+        hinted += owners_of_block(
+            &g, start, surface, oh.order ? &oh : NULL, (uint32_t)b,
+            (uint32_t)(surface->n - b < BLOCK_POINTS ? surface->n : b + BLOCK_POINTS), tau,
+            c->owner, c->bound);
+    c->hinted = hinted;
     free(oh.order);
     wpd_grid_free(&g);
     return 0;

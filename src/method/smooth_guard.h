@@ -115,6 +115,7 @@ typedef struct wpd_cover {
                                 slot[first[o] .. first[o + 1] - 1], in no fixed order */
     uint32_t *slot;
     size_t cap;              /* room in slot */
+    size_t hinted;           /* points whose first owner the hint gave */
 } wpd_cover;
 
 /* What an earlier look at the input found: nearest[s], for the input point

@@ -300,6 +300,7 @@ static void merged_facts(wpd_class_result *out, const uint64_t *count)
     m->open_cells = first->open_cells, m->pulled_to_surface = first->pulled_to_surface;
     m->non_surface = first->non_surface, m->isolated = first->isolated;
     m->guarded_moves = first->guarded_moves, m->sharp_points = first->sharp_points;
+    m->cover_hinted = first->cover_hinted;
     m->sharp_labelled = first->sharp_labelled;
     m->in_memory = first->in_memory, m->tiles = first->tiles, m->colours = first->colours;
     m->largest_tile = first->largest_tile, m->spill = first->spill;

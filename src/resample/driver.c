@@ -22,6 +22,7 @@
 #include "resample/smooth.h"
 #include "resample/merge.h"
 #include "resample/fixed.h"
+#include "resample/hints.h"
 
 static uint32_t record_size_of(const wpd_cloud *cloud)
 {
@@ -314,6 +315,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     wpd_fixed_close(&run);
     wpd_grid_free(&run.surface);
     free(run.nearest);
+    wpd_hints_close(&run);
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);
     wpd_scan_free(&run.scan);

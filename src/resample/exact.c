@@ -17,6 +17,7 @@
 #include "resample/sample_store.h"
 #include "resample/ranks.h"
 #include "resample/fixed.h"
+#include "resample/hints.h"
 
 static int half_of(const wpd_tile_samples *s, size_t i)
 {
@@ -134,7 +135,21 @@ static int cost_view_build(const wpd_run *run, int t, double dist, int labelled,
 static int keeps_nearest(const wpd_run *run, const wpd_tile_data *d)
 {
     return run->res->in_memory && run->plan.ntiles == 1 && !run->owner && run->fixed.n == 0 &&
-           wpd_params_smooths(run->p) && run->surface.n == d->n && d->n > 0;
+           wpd_params_smooths(run->p) && run->surface.n == d->n && d->n > 0 &&
+           !wpd_hints_off_for_test();
+}
+
+/* Per view sample, its index in the tile's store (own samples, the first
+ * own of them) or WPD_SMOOTH_NO_NEAREST (another tile's, an earlier
+ * night's); NULL without memory. */
+static uint32_t *store_numbers(const cost_view *v, size_t own)
+{
+    uint32_t *store_of = malloc((v->n ? v->n : 1) * sizeof *store_of);
+    for (size_t i = 0; store_of && i < v->n; i++)
+        store_of[i] = WPD_SMOOTH_NO_NEAREST;
+    for (size_t i = 0; store_of && i < own; i++)
+        store_of[v->at[i]] = (uint32_t)i;
+    return store_of;
 }
 
 /* The nearest sample of each input point, from the view's numbering
@@ -143,19 +158,30 @@ static int keeps_nearest(const wpd_run *run, const wpd_tile_data *d)
 static void keep_nearest(wpd_run *run, const cost_view *v, size_t own, uint32_t *near,
                          size_t npts)
 {
-    uint32_t *store_of = malloc((v->n ? v->n : 1) * sizeof *store_of);
+    uint32_t *store_of = store_numbers(v, own);
     if (!store_of) {
         free(run->nearest);
         run->nearest = NULL;
         return;
     }
-    for (size_t i = 0; i < v->n; i++)
-        store_of[i] = WPD_SMOOTH_NO_NEAREST;
-    for (size_t i = 0; i < own; i++)
-        store_of[v->at[i]] = (uint32_t)i;
     for (size_t i = 0; i < npts; i++)
         near[i] = near[i] == WPD_ELIMINATE_NO_NEAREST ? WPD_SMOOTH_NO_NEAREST : store_of[near[i]];
     free(store_of);
+}
+
+/* Through tiles, the same for the tile's smoothing, kept in a file
+ * (hints.h). Without memory for the numbering the hints the tile had
+ * stay: renumbered with every deletion, they are still right. */
+static int keep_hints(wpd_run *run, int t, const cost_view *v, size_t own,
+                      const wpd_tile_data *d, const uint32_t *near, wpd_error *err)
+{
+    uint32_t *store_of = store_numbers(v, own);
+    if (!store_of)
+        return 0;
+    wpd_hints_view hv = {v->xyz, store_of, own};
+    int rc = wpd_hints_keep(run, t, d->xyz, near, d->n, &hv, err);
+    free(store_of);
+    return rc;
 }
 
 /* Step 1 for tile t: its samples' costs and crowding distances. */
@@ -182,11 +208,21 @@ static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
     int keep = keeps_nearest(run, &d);
     if (keep && !run->nearest)
         run->nearest = malloc(d.n * sizeof *run->nearest);
-    uint32_t *near = keep ? run->nearest : NULL;
-    wpd_eliminate_add_points(&e, near ? run->surface.xyz : d.xyz, NULL, d.n, threads, near);
-    if (near)
+    uint32_t *near = keep ? run->nearest
+                     : run->hints ? malloc((d.n ? d.n : 1) * sizeof *near)
+                                  : NULL;
+    wpd_eliminate_add_points(&e, keep && near ? run->surface.xyz : d.xyz, NULL, d.n, threads,
+                             near);
+    int failed = 0;
+    if (keep && near)
         keep_nearest(run, &v, s->n, near, d.n);
+    else if (near)
+        failed = keep_hints(run, t, &v, s->n, &d, near, err);
+    if (!keep)
+        free(near);
     wpd_tiles_release(&run->tiles, &d);
+    if (failed)
+        goto done;
     for (size_t i = 0; i < s->n; i++) {
         x->cost[i] = e.cost[v.at[i]];
         x->nn[i] = wpd_eliminate_nearest(&e, v.at[i]);
@@ -536,9 +572,13 @@ static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t
     if (wpd_store_load(run, t, err))
         return -1;
     wpd_tile_samples *s = &run->store[t];
-    /* The input points' nearest samples follow the store (run->nearest). */
-    uint32_t *moved = run->nearest ? malloc((s->n ? s->n : 1) * sizeof *moved) : NULL;
-    size_t n = 0, c = 0;
+    /* The input points' nearest samples follow the store (run->nearest,
+     * or through tiles run->hints). */
+    int follow = run->nearest || run->hints;
+    uint32_t *moved = follow ? malloc((s->n ? s->n : 1) * sizeof *moved) : NULL;
+    if (run->hints && !moved)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
+    size_t n = 0, c = 0, before = s->n;
     for (size_t i = 0; i < s->n; i++) {
         int skip = c < x->ncand && x->cand[c] == i ? del[c++] : 0;
         if (moved)
@@ -554,8 +594,9 @@ static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t
     s->n = n;
     if (run->nearest)
         follow_store(run, moved);
+    int rc = run->hints ? wpd_hints_renumber(run, t, moved, before, err) : 0;
     free(moved);
-    return wpd_store_save(run, t, err);
+    return rc ? rc : wpd_store_save(run, t, err);
 }
 
 /* Tile t's share of the cut (a wpd_tile_fn). */
@@ -630,6 +671,8 @@ int wpd_exact_phase(wpd_run *run, wpd_error *err)
         const char *dir = run->opt->tmpdir ? run->opt->tmpdir : ".";
         rc = wpd_blobs_open(dir, (size_t)run->plan.ntiles * EF_COUNT, &sw.blobs, err);
     }
+    if (rc == 0 && wpd_hints_wanted(run) && !run->hints)
+        rc = wpd_hints_open(run, err);
     while (rc == 0 && live > target) {
         rc = sweep(&sw, live, target, hist, err);
         wpd_exact_free_all(&sw);

@@ -105,6 +105,9 @@ typedef struct wpd_resample_result {
     size_t isolated;          /* ... kept still: the input there sparser than the samples */
     size_t guarded_moves;     /* smoothing moves shortened or refused to keep the spacing
                                  and the coverage (all iterations; method/smooth_guard.h) */
+    size_t cover_hinted;      /* input points (halo copies counted in each tile) whose
+                                 nearest sample smoothing's cover took from the exact
+                                 count instead of a search (resample/hints.h) */
     uint64_t sharp_points;    /* input points labelled sharp, of those labelled: the
                                  Poisson passes ask only for the labels they need
                                  (every one when n >= the input) */

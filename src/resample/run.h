@@ -70,6 +70,8 @@ typedef struct wpd_run {
                                  the exact count's last sweep
                                  found it, or WPD_SMOOTH_NO_NEAREST; smoothing's cover
                                  starts from it (NULL: none, or not kept) */
+    struct wpd_blobs *hints;  /* tiled and smoothed: the exact count's nearest samples
+                                 per tile for smoothing (hints.h), or NULL */
     wpd_resample_result *res;
     int *owner;               /* [ntiles] the rank that runs each tile where the ranks
                                  share the tiles (ranks.c), or NULL: this process

@@ -20,6 +20,7 @@
 #include "method/smooth.h"
 #include "resample/sample_store.h"
 #include "resample/fixed.h"
+#include "resample/hints.h"
 
 static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err)
 {
@@ -41,8 +42,10 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     uint8_t *ctx_edge = NULL;
     size_t nctx = 0;
     int rc = -1;
+    uint32_t *hints = NULL; /* through tiles, the exact count's nearest samples */
     if (surface == &own &&
-        wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err))
+        (wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err) ||
+         wpd_hints_take(run, t, &own, d.n, &hints, err)))
         goto done;
     if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err) ||
         wpd_fixed_append(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err)) /* earlier nights' */
@@ -51,9 +54,11 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
                            surface, run->surface_dk, p->k, p->iterations, r, threads,
                            {p->resolution[0], p->resolution[1], p->resolution[2]},
                            p->even_iterations,
-                           /* the exact count's nearest samples: the surface is
-                              the run's, its points those d holds */
-                           surface == &run->surface && nctx == 0 ? run->nearest : NULL};
+                           /* the exact count's nearest samples: in memory the
+                              surface is the run's, its points those d holds */
+                           surface == &run->surface ? (nctx == 0 ? run->nearest : NULL)
+                                                    : hints,
+                           wpd_hints_checked_for_test()};
     wpd_smooth_stats st;
     int failed = wpd_smooth(&in, &st, err);
     free(run->nearest); /* used up: the samples move */
@@ -70,8 +75,11 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     run->res->isolated += st.isolated_fixed;
 #pragma omp atomic
     run->res->guarded_moves += st.shortened + st.refused;
+#pragma omp atomic
+    run->res->cover_hinted += st.hinted;
     rc = 0;
 done:
+    free(hints);
     wpd_grid_free(&own);
     free(ctx);
     free(ctx_edge);
@@ -84,20 +92,23 @@ int wpd_smooth_phase(wpd_run *run, wpd_error *err)
     if (!wpd_params_smooths(run->p))
         return 0;
     run->res->moved = 1;
-    if (wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, NULL, NULL, err))
+    int failed = wpd_run_each_tile_shared(run, "smooth", smooth_tile, NULL, NULL, NULL, err);
+    wpd_hints_close(run); /* used up */
+    if (failed)
         return -1;
     if (!run->owner)
         return 0;
     /* Each rank counted its own tiles' moves: the run's are their sums. */
     wpd_resample_result *r = run->res;
     size_t *count[] = {&r->open_cells, &r->pulled_to_surface, &r->non_surface, &r->isolated,
-                       &r->guarded_moves};
-    uint64_t sum[5];
-    for (int i = 0; i < 5; i++)
+                       &r->guarded_moves, &r->cover_hinted};
+    enum { COUNTS = sizeof count / sizeof *count };
+    uint64_t sum[COUNTS];
+    for (int i = 0; i < COUNTS; i++)
         sum[i] = *count[i];
-    if (wpd_par_sum_u64(run->opt->par, sum, 5, err))
+    if (wpd_par_sum_u64(run->opt->par, sum, COUNTS, err))
         return -1;
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < COUNTS; i++)
         *count[i] = (size_t)sum[i];
     return 0;
 }

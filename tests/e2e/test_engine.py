@@ -4,6 +4,7 @@ conflict and no seam across tile borders, several inputs, spill cleanup."""
 import filecmp
 import json
 import os
+import re
 
 import numpy as np
 import pytest
@@ -248,6 +249,30 @@ def test_lone_star_per_input_has_exact_union_and_no_seam():
     one_by_one = band_alone / inside_alone
     assert abs(band / inside - 1) <= 0.05, (band, inside, one_by_one)
     assert one_by_one > 1.05, one_by_one
+
+
+@pytest.mark.parametrize("extra", [[], ["--min-tiles", "8"],
+                                   ["--min-tiles", "8", "--radius-estimate", "paper"]],
+                         ids=["memory", "tiles", "tiles-sweeps"])
+def test_nearest_samples_from_the_exact_count_change_no_byte(scan, extra):
+    """Smoothing's cover takes most input points' nearest samples from the
+    exact count's last sweep, in memory and through tiles (resample/hints.h:
+    kept per tile, renumbered by each sweep's deletions); the output is the
+    one a search for every point gives (WPD_TEST_NO_HINTS=1), and every
+    hint names the sample the search finds (WPD_TEST_CHECK_HINTS=1: the run
+    fails otherwise)."""
+    src = scan("nc_cut")
+    said = {}
+    for off in (0, 1):
+        env = dict(os.environ, **({"WPD_TEST_NO_HINTS": "1"} if off else
+                                  {"WPD_TEST_CHECK_HINTS": "1"}))
+        out = "off.las" if off else "on.las"
+        p = wpd("resample", src, "-o", out, "-n", "10000", "-v", "--force", *extra, env=env)
+        said[off] = int(re.search(r"(\d+) input points' nearest samples", p.stdout).group(1))
+        sweeps = int(re.search(r"(\d+) sweeps", p.stdout).group(1))
+        assert sweeps >= (2 if "paper" in extra else 1), p.stdout
+    assert said[1] == 0 and said[0] > 100000, said  # of 206 K (halo copies counted)
+    assert filecmp.cmp("on.las", "off.las", shallow=False)
 
 
 def test_budget_too_small_is_refused_before_work():
