@@ -24,7 +24,10 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp)
      * 512M on 2 threads from 1 % to 50 %, where 128 + 360 f gave 234, 185
      * and 216 MB. Each sample's memo of the input around it (48 bytes,
      * smooth_surface.h) came later and fits in that margin: 37 f a point,
-     * NC 7 x 7 to 50 % peaking at 287 MB against 270 without it. */
+     * NC 7 x 7 to 50 % peaking at 287 MB against 270 without it. So do the
+     * exact count's nearest samples for smoothing (resample/hints.h): 8
+     * bytes a point in the sweep (the query's answer and the hint), 4 to 6
+     * while smoothing reads them in. */
     double smoothing = 74 + 422 * sample_fraction;
     /* --sharp: the labeller's grid over the view (coordinates and slot ids
      * 28, cells ~4) and the labels (1), held through the Poisson pass. */
