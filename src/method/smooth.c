@@ -577,8 +577,8 @@ static int check_cover(const wpd_smooth_input *in, const frames *f, const wpd_co
             at = s;
     wpd_cover_free(&searched);
     if (at < in->surface->n)
-        return wpd_fail(err, WPD_E_INPUT, "smooth: input point %zu (slot) is owned by another "
-                        "sample when searched for than the nearest sample given", at);
+        return wpd_fail(err, WPD_E_USAGE, "smooth: input point %zu (slot) is owned by another "
+                        "sample when searched for than the nearest sample given (a bug)", at);
     return 0;
 }
 

@@ -76,7 +76,7 @@ typedef struct wpd_smooth_input {
                                 guard starts from them (the same result) */
     int check_nearest;       /* tests: the cover's first owners are also searched
                                 for, and any difference from those nearest gives
-                                an error (WPD_E_INPUT) */
+                                an error (WPD_E_USAGE: a bug) */
 } wpd_smooth_input;
 
 #define WPD_SMOOTH_NO_NEAREST UINT32_MAX

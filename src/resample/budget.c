@@ -26,8 +26,8 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp)
      * smooth_surface.h) came later and fits in that margin: 37 f a point,
      * NC 7 x 7 to 50 % peaking at 287 MB against 270 without it. So do the
      * exact count's nearest samples for smoothing (resample/hints.h): 8
-     * bytes a point in the sweep (the query's answer and the hint), 4 to 6
-     * while smoothing reads them in. */
+     * bytes a point in the sweep (the query's answer and the hint), 6 to 8
+     * while smoothing reads them in and 4 through the tile's smoothing. */
     double smoothing = 74 + 422 * sample_fraction;
     /* --sharp: the labeller's grid over the view (coordinates and slot ids
      * 28, cells ~4) and the labels (1), held through the Poisson pass. */

@@ -576,8 +576,6 @@ static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t
      * or through tiles run->hints). */
     int follow = run->nearest || run->hints;
     uint32_t *moved = follow ? malloc((s->n ? s->n : 1) * sizeof *moved) : NULL;
-    if (run->hints && !moved)
-        return wpd_fail(err, WPD_E_MEMORY, "out of memory in tile %d", t);
     size_t n = 0, c = 0, before = s->n;
     for (size_t i = 0; i < s->n; i++) {
         int skip = c < x->ncand && x->cand[c] == i ? del[c++] : 0;
@@ -594,7 +592,9 @@ static int delete_marked(wpd_run *run, int t, const exact_tile *x, const uint8_t
     s->n = n;
     if (run->nearest)
         follow_store(run, moved);
-    int rc = run->hints ? wpd_hints_renumber(run, t, moved, before, err) : 0;
+    int rc = !run->hints ? 0
+             : moved     ? wpd_hints_renumber(run, t, moved, before, err)
+                         : wpd_hints_forget(run, t, err); /* no memory to follow them */
     free(moved);
     return rc ? rc : wpd_store_save(run, t, err);
 }

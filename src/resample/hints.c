@@ -77,32 +77,24 @@ static double depth_in(const double x[3], const double lo[3], const double hi[3]
 static int put_packed(wpd_run *run, int t, uint32_t *hint, size_t npts, size_t samples,
                       wpd_error *err)
 {
-    size_t width = samples < UINT16_MAX ? 2 : 4, raw = npts * width;
-    uint16_t *narrow = (uint16_t *)hint; /* in place: each entry read before it is written */
-    for (size_t i = 0; width == 2 && i < npts; i++)
+    if (samples >= UINT16_MAX)
+        return wpd_blobs_put(run->hints, hints_key(t), hint, npts * sizeof *hint, err);
+    uint16_t *narrow = malloc((npts ? npts : 1) * sizeof *narrow);
+    for (size_t i = 0; narrow && i < npts; i++)
         narrow[i] = hint[i] == WPD_SMOOTH_NO_NEAREST ? UINT16_MAX : (uint16_t)hint[i];
-    return wpd_blobs_put(run->hints, hints_key(t), hint, raw, err);
+    free(hint);
+    if (!narrow)
+        return wpd_fail(err, WPD_E_MEMORY, "out of memory for the nearest samples of tile %d", t);
+    return wpd_blobs_put(run->hints, hints_key(t), narrow, npts * sizeof *narrow, err);
 }
 
-/* Tile t's npts hints as put_packed stored them into *out (malloc'd, 32
- * bits each), none (*out NULL) for a tile without or of another count.
- * Returns 0, or -1 with err set. */
-static int get_packed(const wpd_run *run, int t, size_t npts, uint32_t **out, wpd_error *err)
+/* Hint i of those put_packed stored, width bytes each. */
+static uint32_t hint_at(const void *data, size_t width, size_t i)
 {
-    void *data;
-    size_t bytes;
-    *out = NULL;
-    if (wpd_blobs_get(run->hints, hints_key(t), &data, &bytes, err))
-        return -1;
-    size_t width = npts && (bytes == 2 * npts || bytes == 4 * npts) ? bytes / npts : 0;
-    uint32_t *hint = width == 4 ? data : width == 2 ? realloc(data, npts * sizeof *hint) : NULL;
-    if (!hint)
-        free(data); /* none, or no memory to widen them: the cover searches */
-    const uint16_t *narrow = (const uint16_t *)hint;
-    for (size_t i = npts; hint && width == 2 && i-- > 0;) /* widened in place, from the end */
-        hint[i] = narrow[i] == UINT16_MAX ? WPD_SMOOTH_NO_NEAREST : narrow[i];
-    *out = hint;
-    return 0;
+    if (width == 4)
+        return ((const uint32_t *)data)[i];
+    uint16_t h = ((const uint16_t *)data)[i];
+    return h == UINT16_MAX ? WPD_SMOOTH_NO_NEAREST : h;
 }
 
 int wpd_hints_keep(wpd_run *run, int t, const double *pts, const uint32_t *near, size_t npts,
@@ -120,10 +112,13 @@ int wpd_hints_keep(wpd_run *run, int t, const double *pts, const uint32_t *near,
         hint[i] = WPD_SMOOTH_NO_NEAREST;
         if (own == WPD_SMOOTH_NO_NEAREST)
             continue;
-        /* d + wander < depth, as d^2 < (depth - wander)^2; the factor keeps
-         * rounding (of the faces, of d) on the safe side. */
+        /* d + wander < depth, as d^2 < (depth - wander)^2. The factors and
+         * the slack keep rounding on the safe side: of d, and of the faces -
+         * a point's home tile comes from its cell (floor of x / cell), so a
+         * neighbour's sample may lie an ulp of its coordinates inside. */
         const double *x = pts + 3 * i, *s = v->xyz + 3 * (size_t)h;
-        double room = depth_in(x, tile->box_lo, tile->box_hi) - wander;
+        double slack = 1e-9 * (fabs(x[0]) + fabs(x[1]) + fabs(x[2]) + wander);
+        double room = depth_in(x, tile->box_lo, tile->box_hi) - wander - slack;
         double d2 = (x[0] - s[0]) * (x[0] - s[0]) + (x[1] - s[1]) * (x[1] - s[1]) +
                     (x[2] - s[2]) * (x[2] - s[2]);
         if (room > 0 && d2 * (1 + 1e-8) < room * room * (1 - 1e-8))
@@ -157,31 +152,38 @@ int wpd_hints_renumber(wpd_run *run, int t, const uint32_t *moved, size_t n, wpd
     return wpd_blobs_put(run->hints, map_key(t), map, m * sizeof *map, err);
 }
 
+int wpd_hints_forget(wpd_run *run, int t, wpd_error *err)
+{
+    return wpd_blobs_put(run->hints, hints_key(t), NULL, 0, err);
+}
+
 int wpd_hints_take(const wpd_run *run, int t, const wpd_grid *surface, size_t npts,
-                   uint32_t **out, wpd_error *err)
+                   size_t samples, uint32_t **out, wpd_error *err)
 {
     *out = NULL;
     if (!run->hints)
         return 0;
-    uint32_t *hint;
-    void *mapped;
-    size_t mbytes;
-    if (get_packed(run, t, npts, &hint, err))
+    void *data, *mapped;
+    size_t bytes, mbytes;
+    if (wpd_blobs_get(run->hints, hints_key(t), &data, &bytes, err))
         return -1;
     if (wpd_blobs_get(run->hints, map_key(t), &mapped, &mbytes, err)) {
-        free(hint);
+        free(data);
         return -1;
     }
-    const uint32_t *map = mbytes ? mapped : NULL;
-    uint32_t *by_slot = hint && surface->n == npts
-                            ? malloc((npts ? npts : 1) * sizeof *by_slot)
-                            : NULL;
+    size_t width = npts && (bytes == 2 * npts || bytes == 4 * npts) ? bytes / npts : 0;
+    const uint32_t *map = mapped;
+    size_t m = mbytes / sizeof *map;
+    uint32_t *by_slot = width && surface->n == npts ? malloc(npts * sizeof *by_slot) : NULL;
     for (size_t s = 0; by_slot && s < npts; s++) {
-        uint32_t h = hint[surface->id[s]];
-        by_slot[s] = h == WPD_SMOOTH_NO_NEAREST || !map ? h : map[h];
+        uint32_t h = hint_at(data, width, surface->id[s]);
+        if (h != WPD_SMOOTH_NO_NEAREST && m)
+            h = h < m ? map[h] : WPD_SMOOTH_NO_NEAREST;
+        /* An index past the store would be read as a sample: none instead. */
+        by_slot[s] = h < samples ? h : WPD_SMOOTH_NO_NEAREST;
     }
-    free(hint);
+    free(data);
     free(mapped);
-    *out = by_slot; /* without memory for it, the cover searches */
+    *out = by_slot; /* none, or no memory for them: the cover searches */
     return 0;
 }

@@ -5,9 +5,11 @@
  * (method/smooth_guard.h, wpd_cover_init), and the exact count's last sweep
  * has just found it for the same points of the same tile (each point's
  * strictly nearest sample, method/eliminate.h). Through tiles the two are
- * separate phases, so the sweep keeps, per tile, one uint32 a point in a
- * blob (spill/blobs.h) in the order the tile's points are read back, and
- * the tile's smoothing reads it once. A point keeps a hint only where the
+ * separate phases, so every sweep keeps, per tile, a sample index a point
+ * (16 bits while the tile holds fewer than 65 535 samples, else 32; a mark
+ * for none) in a blob (spill/blobs.h), in the order the tile's points are
+ * read back; the last sweep's stay, and the tile's smoothing reads them
+ * once. A point keeps a hint only where the
  * cover's own search would find the same sample:
  *   - the sample is strictly nearer than every other sample the sweep saw
  *     (the tile's own, the neighbours' within 2 R, earlier nights'), and
@@ -80,11 +82,15 @@ int wpd_hints_keep(wpd_run *run, int t, const double *pts, const uint32_t *near,
  * deleted one. Returns 0, or -1 with err set. */
 int wpd_hints_renumber(wpd_run *run, int t, const uint32_t *moved, size_t n, wpd_error *err);
 
+/* Drops tile t's hints (its points are searched for): where the store's
+ * new numbering cannot be followed. Returns 0, or -1 with err set. */
+int wpd_hints_forget(wpd_run *run, int t, wpd_error *err);
+
 /* Tile t's hints by the slots of surface (a grid over the tile's npts
- * points as read), for wpd_smooth_input.nearest: *out (malloc'd; NULL when
- * the tile has none, or they do not match its points). Returns 0, or -1
- * with err set. */
+ * points as read), for wpd_smooth_input.nearest, each below samples (the
+ * tile's store): *out (malloc'd; NULL when the tile has none, or they do
+ * not match its points). Returns 0, or -1 with err set. */
 int wpd_hints_take(const wpd_run *run, int t, const wpd_grid *surface, size_t npts,
-                   uint32_t **out, wpd_error *err);
+                   size_t samples, uint32_t **out, wpd_error *err);
 
 #endif

@@ -45,7 +45,7 @@ static int smooth_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *e
     uint32_t *hints = NULL; /* through tiles, the exact count's nearest samples */
     if (surface == &own &&
         (wpd_grid_build_knn(&own, d.xyz, NULL, d.n, p->k, run->surface_dk, threads, err) ||
-         wpd_hints_take(run, t, &own, d.n, &hints, err)))
+         wpd_hints_take(run, t, &own, d.n, s->n, &hints, err)))
         goto done;
     if (wpd_run_neighbour_samples(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err) ||
         wpd_fixed_append(run, t, 3 * r, &ctx, &ctx_edge, &nctx, err)) /* earlier nights' */

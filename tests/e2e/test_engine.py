@@ -252,8 +252,9 @@ def test_lone_star_per_input_has_exact_union_and_no_seam():
 
 
 @pytest.mark.parametrize("extra", [[], ["--min-tiles", "8"],
-                                   ["--min-tiles", "8", "--radius-estimate", "paper"]],
-                         ids=["memory", "tiles", "tiles-sweeps"])
+                                   ["--min-tiles", "8", "--radius-estimate", "paper"],
+                                   ["--min-tiles", "8", "--sharp"]],
+                         ids=["memory", "tiles", "tiles-sweeps", "tiles-sharp"])
 def test_nearest_samples_from_the_exact_count_change_no_byte(scan, extra):
     """Smoothing's cover takes most input points' nearest samples from the
     exact count's last sweep, in memory and through tiles (resample/hints.h:
