@@ -19,18 +19,12 @@ usage: /usr/bin/python3 bench/cost_cut_model.py INPUT SAMPLES N
   (R: the radius `wpd resample INPUT -n N -v` prints); N the target.
 Needs numpy and scipy (Debian: python3-numpy python3-scipy).
 """
-import os
 import sys
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "shared", "tools"))
-import pcio  # noqa: E402  (../shared/tools: the independent reader)
-
-
-def load(path):
-    return np.asarray(pcio.read_points(path), dtype=float)[:, :3]
+from cost_prune_model import load  # the same reader (../shared/tools/pcio.py)
 
 
 def main():

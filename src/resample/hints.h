@@ -54,8 +54,8 @@ int wpd_hints_off_for_test(void);
  * (wpd_smooth_input.check_nearest). */
 int wpd_hints_checked_for_test(void);
 
-/* Opens run->hints (one blob a tile, all empty). Returns 0, or -1 with err
- * set. */
+/* Opens run->hints (two blobs a tile, the hints and their map; all
+ * empty). Returns 0, or -1 with err set. */
 int wpd_hints_open(wpd_run *run, wpd_error *err);
 
 /* Removes the hints' files; run->hints becomes NULL. NULL allowed. */

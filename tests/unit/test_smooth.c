@@ -89,7 +89,7 @@ static int smooth(cloud *c, double *t, double r, int threads, int even, wpd_smoo
     wpd_error err;
     memcpy(t, c->s, 3 * c->m * sizeof *t);
     wpd_smooth_input in = {t, c->m, NULL, NULL, NULL, 0, &c->surface, 0, 13, 5, r, threads,
-                           {0, 0, 0}, even, NULL};
+                           {0, 0, 0}, even, NULL, 0};
     return wpd_smooth(&in, st, &err);
 }
 
@@ -357,14 +357,24 @@ static void check_tally(const hold_tally *t, int share, int *failures_)
     CHECK_MSG(t->pulled > 0, "no place was pulled back to the surface");
 }
 
+/* A flat 60 x 60 sheet of unit spacing (jittered by seed) with its
+ * surface grid, for the memo tests. */
+static cloud unit_sheet(uint64_t seed)
+{
+    cloud c = sheet(60, 1.0, 0, seed);
+    wpd_error err;
+    if (wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err))
+        c.surface.n = 0; /* the tests check it */
+    return c;
+}
+
 TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
 {
     /* Samples walking over a jittered sheet in steps of up to a seventh of
      * the input spacing, now and then a step off the sheet far enough to
      * be pulled back: the memo may only spare queries. */
-    cloud c = sheet(60, 1.0, 0, 7);
-    wpd_error err;
-    wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err);
+    cloud c = unit_sheet(7);
+    CHECK(c.surface.n == c.n);
     uint64_t seed = 11;
     hold_tally t = {0};
     for (int walk = 0; walk < 200; walk++) {
@@ -387,9 +397,8 @@ TEST(a_memo_filled_by_a_projection_query_spares_holds_without_changing_them)
      * the memo (wpd_surface_memo_fill), then the point a little off p
      * (the projection, now and then farther) is held on the surface: the
      * same places as without the memo, and many holds spared. */
-    cloud c = sheet(60, 1.0, 0, 9);
-    wpd_error err;
-    wpd_grid_build(&c.surface, c.xyz, NULL, c.n, 1.0, 1, &err);
+    cloud c = unit_sheet(9);
+    CHECK(c.surface.n == c.n);
     uint64_t seed = 5;
     hold_tally t = {0};
     for (int i = 0; i < 3000; i++) {

@@ -276,7 +276,7 @@ TEST(even_steps_even_the_spacing_on_a_plane_and_in_a_volume)
             double *out = threads == 1 ? t1 : t;
             memcpy(out, s, 3 * m * sizeof *s);
             wpd_smooth_input in = {out, m, NULL, NULL, NULL, 0, &surface, 0, 13, 0, r, threads,
-                                   {0, 0, 0}, 3, NULL};
+                                   {0, 0, 0}, 3, NULL, 0};
             CHECK(wpd_smooth(&in, &st, &err) == 0);
         }
         CHECK_MSG(memcmp(t, t1, 3 * m * sizeof *t) == 0, "shape %d: threads changed it", shape);
@@ -355,7 +355,7 @@ TEST(even_steps_move_as_much_on_a_las_lattice)
         double res = lattice ? scale : 0;
         memcpy(t[lattice], s, 3 * m * sizeof *s);
         wpd_smooth_input in = {t[lattice], m, NULL, NULL, NULL, 0, &surface, 0, 13, 0, r, 2,
-                               {res, res, res}, 3, NULL};
+                               {res, res, res}, 3, NULL, 0};
         wpd_smooth_stats st;
         CHECK(wpd_smooth(&in, &st, &err) == 0);
         for (size_t i = 0; i < 3 * m; i += 3)

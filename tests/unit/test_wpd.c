@@ -499,7 +499,7 @@ TEST(wpd_smoothing_evens_out_a_jittered_plane_and_stays_on_it)
     double *t = malloc(3 * (size_t)m * sizeof *t);
     memcpy(t, s, 3 * (size_t)m * sizeof *t);
     wpd_smooth_input sm = {t, (size_t)m, NULL, NULL, NULL, 0, &surface, 0, 13, 5, r, 2,
-                           {0, 0, 0}, 0, NULL};
+                           {0, 0, 0}, 0, NULL, 0};
     wpd_smooth_stats ss;
     CHECK(wpd_smooth(&sm, &ss, &err) == 0);
     double after = area_cv(t, (size_t)m, 2 * r);
@@ -546,7 +546,7 @@ TEST(wpd_smoothing_projects_back_onto_a_curved_surface)
     for (int proj = 0; proj < 2; proj++) {
         memcpy(t, s, 3 * (size_t)m * 8);
         wpd_smooth_input sm = {t, (size_t)m, NULL, NULL, NULL, 0, proj ? &surface : NULL, 0,
-                               13, 5, 0.8, 2, {0, 0, 0}, 0, NULL};
+                               13, 5, 0.8, 2, {0, 0, 0}, 0, NULL, 0};
         wpd_smooth_stats ss;
         CHECK(wpd_smooth(&sm, &ss, &err) == 0);
         worst[proj] = 0;
