@@ -3,6 +3,7 @@
 
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -27,6 +28,19 @@ void *wpd_malloc_large(size_t bytes)
 {
     void *p = malloc(bytes ? bytes : 1);
     wpd_prefer_huge_pages(p, bytes);
+    return p;
+}
+
+void *wpd_calloc_large(size_t count, size_t size)
+{
+    if (size && count > SIZE_MAX / size)
+        return NULL;
+    size_t bytes = count * size;
+    if (bytes < WPD_HUGE_MIN)
+        return calloc(count ? count : 1, size ? size : 1);
+    void *p = wpd_malloc_large(bytes);
+    if (p)
+        memset(p, 0, bytes);
     return p;
 }
 

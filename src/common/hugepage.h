@@ -27,6 +27,10 @@ void wpd_prefer_huge_pages(void *p, size_t bytes);
 /* malloc(bytes), with wpd_prefer_huge_pages on the result. Free with free(). */
 void *wpd_malloc_large(size_t bytes);
 
+/* calloc(count, size), with wpd_prefer_huge_pages before the zeroing
+ * touches the pages; NULL when count * size overflows. Free with free(). */
+void *wpd_calloc_large(size_t count, size_t size);
+
 /* realloc(p, bytes), with wpd_prefer_huge_pages on the result (the part
  * already touched keeps its pages). Free with free(). */
 void *wpd_realloc_large(void *p, size_t bytes);

@@ -55,6 +55,26 @@ static void scan_slots(const wpd_grid *g, const double q[3], uint32_t b, uint32_
     }
 }
 
+/* Offers the points of the cells of row b (along axis[1]) whose
+ * columns lie in [lo[0], hi[0]] and whose index along axis[2] lies in
+ * [lo[2], hi[2]]; dense column index only. */
+static void scan_row(const wpd_grid *g, const double q[3], const int64_t lo[3], const int64_t hi[3],
+                     int64_t b, knn_heap *h)
+{
+    uint64_t da = (uint64_t)g->dim[g->axis[0]];
+    uint64_t col = (uint64_t)lo[0] + da * (uint64_t)b;
+    uint32_t r = g->col_run[col], re = g->col_run[col + (uint64_t)(hi[0] - lo[0]) + 1];
+    while (r < re) {
+        while (r < re && ((int64_t)g->run_c[r] < lo[2] || (int64_t)g->run_c[r] > hi[2]))
+            r++;
+        uint32_t first = r;
+        while (r < re && (int64_t)g->run_c[r] >= lo[2] && (int64_t)g->run_c[r] <= hi[2])
+            r++;
+        if (r > first)
+            scan_slots(g, q, g->run_start[first], g->run_start[r], h);
+    }
+}
+
 /* Offers every point of the cells overlapping [q - rho, q + rho]; when the
  * box spans more columns than there are points, every point instead.
  * Returns 1 if every point of the grid was offered. */
@@ -72,6 +92,20 @@ static int scan_box(const wpd_grid *g, const double q[3], double rho, knn_heap *
     for (int k = 0; k < 3; k++)
         if (lo[k] > 0 || hi[k] < g->dim[g->axis[k]] - 1)
             all = 0;
+    if (g->col_run) {
+        /* Dense columns: the columns lo[0]..hi[0] of one row are consecutive
+         * runs, so a row is read as one stream of runs and slots instead of
+         * a lookup per column. The row of q first: its points are the
+         * nearest, so the bound is tight early (the k best by distance and
+         * index do not depend on the order of the offers). */
+        int64_t cb = wpd_grid_coord(g, g->axis[1], q[g->axis[1]]);
+        if (cb >= lo[1] && cb <= hi[1])
+            scan_row(g, q, lo, hi, cb, h);
+        for (int64_t b = lo[1]; b <= hi[1]; b++)
+            if (b != cb)
+                scan_row(g, q, lo, hi, b, h);
+        return all;
+    }
     /* The column of q first: its points are the nearest, so the bound is
      * tight early and fewer farther points get offered (the k best by
      * distance and index do not depend on the order of the offers). */

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/hugepage.h"
 #include "core/knn.h"
 #include "core/pca.h"
 #include "core/voronoi.h"
@@ -92,30 +93,30 @@ static int alloc_frames(frames *f, const wpd_smooth_input *in, int k, int even)
     f->n = in->n;
     f->nctx = in->nctx;
     f->k = k;
-    f->perm = malloc(m * sizeof *f->perm);
-    f->pos = malloc(3 * (all ? all : 1) * sizeof *f->pos);
-    f->start = malloc(3 * m * sizeof *f->start);
-    f->nb = malloc(m * (size_t)k * sizeof *f->nb);
-    f->cnt = malloc(m);
-    f->uvn = malloc(9 * m * sizeof *f->uvn);
-    f->still = calloc(m, 1);
-    f->half = in->edge ? calloc(all ? all : 1, 1) : NULL;
-    f->pulled = calloc(m, 1);
-    f->plan = malloc(3 * m * sizeof *f->plan);
-    f->cap = malloc(m * sizeof *f->cap);
-    f->rho = malloc(m * sizeof *f->rho);
-    f->plane = malloc(9 * m * sizeof *f->plane);
-    f->fitted = calloc(m, 1);
-    f->memo = calloc(m, sizeof *f->memo);
+    f->perm = wpd_malloc_large(m * sizeof *f->perm);
+    f->pos = wpd_malloc_large(3 * (all ? all : 1) * sizeof *f->pos);
+    f->start = wpd_malloc_large(3 * m * sizeof *f->start);
+    f->nb = wpd_malloc_large(m * (size_t)k * sizeof *f->nb);
+    f->cnt = wpd_malloc_large(m);
+    f->uvn = wpd_malloc_large(9 * m * sizeof *f->uvn);
+    f->still = wpd_calloc_large(m, 1);
+    f->half = in->edge ? wpd_calloc_large(all ? all : 1, 1) : NULL;
+    f->pulled = wpd_calloc_large(m, 1);
+    f->plan = wpd_malloc_large(3 * m * sizeof *f->plan);
+    f->cap = wpd_malloc_large(m * sizeof *f->cap);
+    f->rho = wpd_malloc_large(m * sizeof *f->rho);
+    f->plane = wpd_malloc_large(9 * m * sizeof *f->plane);
+    f->fitted = wpd_calloc_large(m, 1);
+    f->memo = wpd_calloc_large(m, sizeof *f->memo);
     int ok = f->perm && f->pos && f->start && f->nb && f->cnt && f->uvn && f->still &&
              (f->half || !in->edge) && f->pulled && f->plan && f->cap && f->rho && f->plane &&
              f->fitted && f->memo;
     if (!ok || !even)
         return ok ? 0 : -1;
-    f->spacing = malloc(m * sizeof *f->spacing);
-    f->nearest = malloc(m * sizeof *f->nearest);
-    f->ends = malloc(3 * m * WPD_EVEN_TRIES * sizeof *f->ends);
-    f->tries = malloc(m);
+    f->spacing = wpd_malloc_large(m * sizeof *f->spacing);
+    f->nearest = wpd_malloc_large(m * sizeof *f->nearest);
+    f->ends = wpd_malloc_large(3 * m * WPD_EVEN_TRIES * sizeof *f->ends);
+    f->tries = wpd_malloc_large(m);
     return f->spacing && f->nearest && f->ends && f->tries ? 0 : -1;
 }
 
@@ -179,7 +180,7 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
 {
     size_t n = in->n, total = in->n + in->nctx;
     /* Samples then context samples, one array for the neighbour grid. */
-    double *all = malloc(3 * total * sizeof *all);
+    double *all = wpd_malloc_large(3 * total * sizeof *all);
     uint32_t *inv = malloc((n ? n : 1) * sizeof *inv);
     wpd_grid g = {0};
     int rc = -1;
@@ -619,7 +620,7 @@ int wpd_smooth(const wpd_smooth_input *in, wpd_smooth_stats *stats, wpd_error *e
     int k = in->k < 3 ? 3 : in->k > WPD_KNN_MAX ? WPD_KNN_MAX : in->k;
     frames f = {0};
     guards g = {0};
-    double *scratch = malloc(3 * all * sizeof *scratch), *next = scratch;
+    double *scratch = wpd_malloc_large(3 * all * sizeof *scratch), *next = scratch;
     int rc = -1;
     if (!scratch || alloc_frames(&f, in, k, even > 0) < 0) {
         wpd_fail(err, WPD_E_MEMORY, "smooth: out of memory for %zu samples", n);

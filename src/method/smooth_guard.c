@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/hugepage.h"
 #include "core/knn.h"
 
 /* Poisson distance of samples a and b, in units of r: the mean of their
@@ -276,8 +277,8 @@ int wpd_cover_init(wpd_cover *c, const wpd_grid *surface, const double *start, s
     c->n = n;
     c->surface = surface;
     size_t m = surface->n ? surface->n : 1;
-    c->bound = malloc(m * sizeof *c->bound);
-    c->owner = malloc(m * sizeof *c->owner);
+    c->bound = wpd_malloc_large(m * sizeof *c->bound);
+    c->owner = wpd_malloc_large(m * sizeof *c->owner);
     c->first = malloc((n + 2) * sizeof *c->first);
     wpd_grid g = {0};
     if (!c->bound || !c->owner || !c->first) {

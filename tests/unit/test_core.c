@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/hugepage.h"
 #include "core/grid.h"
 #include "core/hash.h"
 #include "core/knn.h"
@@ -339,4 +340,22 @@ TEST(core_voronoi_cell_on_a_border_is_open)
     double same[2 * 4] = {0, 0, 1, 0, -1, 0.1, 0, 1};
     wpd_voronoi_cell_2d(same, 4, 0, &cell);
     CHECK(cell.edge[0] == 0);
+}
+
+TEST(core_calloc_large_is_zeroed_and_checks_overflow)
+{
+    /* Above the huge-page threshold the memory is advised, then zeroed by
+     * hand: it must read as zero like calloc's. */
+    size_t count = WPD_HUGE_MIN / sizeof(double) + 1000;
+    double *a = wpd_calloc_large(count, sizeof *a);
+    CHECK(a != NULL);
+    int zero = 1;
+    for (size_t i = 0; a && i < count; i += 997)
+        zero &= a[i] == 0;
+    CHECK(zero && a && a[count - 1] == 0);
+    free(a);
+    uint8_t *small = wpd_calloc_large(16, 1);
+    CHECK(small != NULL && small[15] == 0);
+    free(small);
+    CHECK(wpd_calloc_large(SIZE_MAX / 2, 4) == NULL);
 }
