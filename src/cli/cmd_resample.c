@@ -397,8 +397,9 @@ static void print_summary(const wpd_run_info *info, const resample_options *o)
         printf("  in memory: one tile, no spill\n");
     else
         printf("  tiles: %d in %d colours (largest %llu points), spill %.1f MB -> %.1f MB on "
-               "disk\n", r->tiles, r->colours, (unsigned long long)r->largest_tile,
-               r->spill.raw_bytes / 1e6, r->spill.disk_bytes / 1e6);
+               "disk, working files beside it up to %.1f MB\n", r->tiles, r->colours,
+               (unsigned long long)r->largest_tile, r->spill.raw_bytes / 1e6,
+               r->spill.disk_bytes / 1e6, r->work_file_bytes / 1e6);
     printf("  time: bounds %.3f s, scan %.3f, %s %.3f, poisson %.3f, exact %.3f, smooth %.3f, "
            "merge %.3f, records and write %.3f, total %.3f (threads %d)\n", t->bounds, t->scan,
            r->in_memory ? "load" : "tile", t->tile, t->poisson, t->exact, t->smooth, t->merge,

@@ -70,6 +70,7 @@ static void write_tiles(FILE *f, const wpd_run_info *info)
                "\"ratio\": ", (unsigned long long)r->spill.points,
             (unsigned long long)r->spill.raw_bytes, (unsigned long long)r->spill.disk_bytes);
     wpd_json_number(f, ratio);
+    fprintf(f, ", \"work_file_bytes\": %llu", (unsigned long long)r->work_file_bytes);
     /* A cloud held in memory is one tile, reported as none: no spill. */
     int tiles = r->in_memory ? 0 : r->tiles;
     fprintf(f, "},\n  \"tiles\": {\"count\": %d, \"colours\": %d, \"largest_points\": %llu, "

@@ -304,6 +304,7 @@ static void merged_facts(wpd_class_result *out, const uint64_t *count)
     m->sharp_labelled = first->sharp_labelled;
     m->in_memory = first->in_memory, m->tiles = first->tiles, m->colours = first->colours;
     m->largest_tile = first->largest_tile, m->spill = first->spill;
+    m->work_file_bytes = first->work_file_bytes;
     m->tile_box = first->tile_box; /* moved: the report lists the boxes */
     first->tile_box = NULL;
 }

@@ -316,6 +316,7 @@ int wpd_resample_run(wpd_cloud *cloud, const wpd_resample_options *opt,
     wpd_grid_free(&run.surface);
     free(run.nearest);
     wpd_hints_close(&run);
+    res->work_file_bytes = run.work_files.peak;
     wpd_tiles_close(&run.tiles);
     wpd_plan_free(&run.plan);
     wpd_scan_free(&run.scan);

@@ -47,7 +47,10 @@ static size_t map_key(int t)
 int wpd_hints_open(wpd_run *run, wpd_error *err)
 {
     const char *dir = run->opt->tmpdir ? run->opt->tmpdir : ".";
-    return wpd_blobs_open(dir, 2 * (size_t)run->plan.ntiles, &run->hints, err);
+    if (wpd_blobs_open(dir, 2 * (size_t)run->plan.ntiles, &run->hints, err))
+        return -1;
+    wpd_blobs_count_in(run->hints, &run->work_files);
+    return 0;
 }
 
 void wpd_hints_close(wpd_run *run)

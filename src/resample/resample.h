@@ -121,6 +121,10 @@ typedef struct wpd_resample_result {
     double *tile_box;         /* [6 tiles]: min x y z, max x y z, absolute, outer
                                  faces at the data's bounds */
     wpd_spill_stats spill;    /* zeros in memory */
+    uint64_t work_file_bytes; /* the most bytes this process's working files beside the
+                                 spill held at once: the exact count's per-tile arrays
+                                 and the nearest samples for smoothing (spill/blobs.h,
+                                 resample/hints.h); 0 in memory */
     wpd_resample_timings time;
 } wpd_resample_result;
 

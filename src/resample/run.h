@@ -16,6 +16,7 @@
 #include "resample/resample.h"
 #include "resample/scan.h"
 #include "resample/tiles.h"
+#include "spill/blobs.h"
 #include "spill/runs.h"
 #include "core/grid.h"
 #include "method/poisson.h"
@@ -72,6 +73,7 @@ typedef struct wpd_run {
                                  starts from it (NULL: none, or not kept) */
     struct wpd_blobs *hints;  /* tiled and smoothed: the exact count's nearest samples
                                  per tile for smoothing (hints.h), or NULL */
+    wpd_blobs_use work_files; /* bytes of the exact count's files and the hints' */
     wpd_resample_result *res;
     int *owner;               /* [ntiles] the rank that runs each tile where the ranks
                                  share the tiles (ranks.c), or NULL: this process

@@ -16,7 +16,25 @@ struct wpd_blobs {
     char dir[PATH_MAX];
     size_t nkeys;
     size_t *bytes;            /* [nkeys] size of each blob's file */
+    wpd_blobs_use *use;       /* where its bytes are counted, or NULL */
 };
+
+/* use->now += delta (a difference of sizes, modulo 2^64), and the peak. */
+static void count(wpd_blobs_use *use, uint64_t delta)
+{
+    if (!use)
+        return;
+    uint64_t now = __atomic_add_fetch(&use->now, delta, __ATOMIC_RELAXED);
+    uint64_t peak = __atomic_load_n(&use->peak, __ATOMIC_RELAXED);
+    while (now > peak && !__atomic_compare_exchange_n(&use->peak, &peak, now, 1,
+                                                       __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+        ;
+}
+
+void wpd_blobs_count_in(wpd_blobs *b, wpd_blobs_use *use)
+{
+    b->use = use;
+}
 
 int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs **out, wpd_error *err)
 {
@@ -40,6 +58,8 @@ void wpd_blobs_close(wpd_blobs *b)
 {
     if (!b)
         return;
+    for (size_t k = 0; k < b->nkeys; k++)
+        count(b->use, -(uint64_t)b->bytes[k]);
     wpd_tmpdir_remove(b->dir);
     free(b->bytes);
     free(b);
@@ -61,7 +81,9 @@ int wpd_blobs_put(wpd_blobs *b, size_t key, void *data, size_t bytes, wpd_error 
     if (fd >= 0 && close(fd) && rc == 0)
         rc = wpd_fail_errno(err, "%s: cannot write", path);
     free(data);
-    b->bytes[key] = rc ? 0 : bytes;
+    size_t now = rc ? 0 : bytes;
+    count(b->use, (uint64_t)now - (uint64_t)b->bytes[key]);
+    b->bytes[key] = now;
     return rc;
 }
 

@@ -12,10 +12,18 @@
 #define WPD_SPILL_BLOBS_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "common/error.h"
 
 typedef struct wpd_blobs wpd_blobs;
+
+/* Bytes on disk of the blob sets counted in it (wpd_blobs_count_in): now,
+ * and the most at any time. Updated atomically: sets on several threads may
+ * share one. */
+typedef struct wpd_blobs_use {
+    uint64_t now, peak;
+} wpd_blobs_use;
 
 /* A set of blobs 0 .. nkeys - 1, all empty. Returns 0 with *out set, or -1
  * with err set. */
@@ -23,6 +31,10 @@ int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs **out, wpd_erro
 
 /* Removes every file and the directory, frees the set. NULL allowed. */
 void wpd_blobs_close(wpd_blobs *b);
+
+/* Counts b's bytes in *use from now on (its blobs must all be empty yet),
+ * until b is closed. */
+void wpd_blobs_count_in(wpd_blobs *b, wpd_blobs_use *use);
 
 /* Replaces blob key by bytes bytes of data and frees data (malloc'd), on
  * failure too. Returns 0 or -1 with err set. */

@@ -164,6 +164,10 @@ def test_report_is_valid_json_with_the_documented_fields(scan, name):
         assert r["peak_rss_bytes"] > 0 and r["seconds"]["total"] > 0
         if extra:
             assert r["tiles"]["count"] >= 4 and r["spill"]["disk_bytes"] > 0
+            # The exact count's files and the hints for smoothing, beside the spill.
+            assert r["spill"]["work_file_bytes"] > 0
+        else:
+            assert r["spill"]["work_file_bytes"] == 0
             assert len(r["tiles"]["boxes"]) == r["tiles"]["count"]
 
 

@@ -43,3 +43,28 @@ TEST(blobs_round_trip_and_close_removes_everything)
     wpd_blobs_close(b);
     CHECK(test_tmp_entries("wpd-blobs-", dir, sizeof dir) == 0);
 }
+
+TEST(blobs_count_their_bytes_now_and_at_the_peak)
+{
+    /* Two sets counted in one use, as the exact count's files and the
+     * hints are: replacing a blob counts the difference, closing a set
+     * takes its bytes off, the peak stays. */
+    wpd_blobs *a, *b;
+    wpd_error err = {0};
+    wpd_blobs_use use = {0, 0};
+    CHECK(wpd_blobs_open(test_tmp_dir(), 2, &a, &err) == 0);
+    CHECK(wpd_blobs_open(test_tmp_dir(), 2, &b, &err) == 0);
+    wpd_blobs_count_in(a, &use);
+    wpd_blobs_count_in(b, &use);
+    CHECK(wpd_blobs_put(a, 0, calloc(100, 1), 100, &err) == 0);
+    CHECK(wpd_blobs_put(b, 1, calloc(50, 1), 50, &err) == 0);
+    CHECK(use.now == 150 && use.peak == 150);
+    CHECK(wpd_blobs_put(a, 0, calloc(30, 1), 30, &err) == 0);
+    CHECK(use.now == 80 && use.peak == 150);
+    wpd_blobs_close(a);
+    CHECK(use.now == 50 && use.peak == 150);
+    CHECK(wpd_blobs_put(b, 0, calloc(200, 1), 200, &err) == 0);
+    CHECK(use.now == 250 && use.peak == 250);
+    wpd_blobs_close(b);
+    CHECK(use.now == 0 && use.peak == 250);
+}

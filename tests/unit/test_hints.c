@@ -14,7 +14,7 @@
 #define NO WPD_SMOOTH_NO_NEAREST
 
 /* One tile, box [0, 100]^3, radius 1, its hints open in a private
- * directory under /tmp (removed by wpd_hints_close). */
+ * directory under the tests' own (removed by wpd_hints_close). */
 typedef struct hint_run {
     wpd_run run;
     wpd_resample_options opt;
@@ -24,7 +24,7 @@ typedef struct hint_run {
 static int open_one_tile(hint_run *h, wpd_error *err)
 {
     memset(h, 0, sizeof *h);
-    h->opt.tmpdir = "/tmp";
+    h->opt.tmpdir = test_tmp_dir();
     for (int a = 0; a < 3; a++)
         h->tile.box_hi[a] = 100;
     h->run.opt = &h->opt;
