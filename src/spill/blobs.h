@@ -18,9 +18,10 @@
 
 typedef struct wpd_blobs wpd_blobs;
 
-/* Bytes on disk of the blob sets counted in it (wpd_blobs_count_in): now,
- * and the most at any time. Updated atomically: sets on several threads may
- * share one. */
+/* Bytes of the blob sets counted in it (wpd_blobs_count_in), by the sizes
+ * their puts recorded (a failed put counts 0, though a part may be on disk
+ * until the set is closed): now, and the most at any time. Updated
+ * atomically: sets on several threads may share one. */
 typedef struct wpd_blobs_use {
     uint64_t now, peak;
 } wpd_blobs_use;
