@@ -669,9 +669,8 @@ int wpd_exact_phase(wpd_run *run, wpd_error *err)
     int rc = sw.tile && hist ? 0 : wpd_fail(err, WPD_E_MEMORY, "out of memory");
     if (rc == 0 && run->files) {
         const char *dir = run->opt->tmpdir ? run->opt->tmpdir : ".";
-        rc = wpd_blobs_open(dir, (size_t)run->plan.ntiles * EF_COUNT, &sw.blobs, err);
-        if (rc == 0)
-            wpd_blobs_count_in(sw.blobs, &run->work_files);
+        rc = wpd_blobs_open(dir, (size_t)run->plan.ntiles * EF_COUNT, &run->work_files,
+                            &sw.blobs, err);
     }
     if (rc == 0 && wpd_hints_wanted(run) && !run->hints)
         rc = wpd_hints_open(run, err);

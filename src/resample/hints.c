@@ -47,10 +47,7 @@ static size_t map_key(int t)
 int wpd_hints_open(wpd_run *run, wpd_error *err)
 {
     const char *dir = run->opt->tmpdir ? run->opt->tmpdir : ".";
-    if (wpd_blobs_open(dir, 2 * (size_t)run->plan.ntiles, &run->hints, err))
-        return -1;
-    wpd_blobs_count_in(run->hints, &run->work_files);
-    return 0;
+    return wpd_blobs_open(dir, 2 * (size_t)run->plan.ntiles, &run->work_files, &run->hints, err);
 }
 
 void wpd_hints_close(wpd_run *run)

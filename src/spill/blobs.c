@@ -31,12 +31,8 @@ static void count(wpd_blobs_use *use, uint64_t delta)
         ;
 }
 
-void wpd_blobs_count_in(wpd_blobs *b, wpd_blobs_use *use)
-{
-    b->use = use;
-}
-
-int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs **out, wpd_error *err)
+int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs_use *use, wpd_blobs **out,
+                   wpd_error *err)
 {
     wpd_blobs *b = calloc(1, sizeof *b);
     *out = NULL;
@@ -45,6 +41,7 @@ int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs **out, wpd_erro
         return wpd_fail(err, WPD_E_MEMORY, "out of memory");
     }
     b->nkeys = nkeys;
+    b->use = use;
     if (wpd_tmpdir_create(base_dir, "wpd-blobs", b->dir, sizeof b->dir, err)) {
         free(b->bytes);
         free(b);

@@ -18,7 +18,7 @@
 
 typedef struct wpd_blobs wpd_blobs;
 
-/* Bytes of the blob sets counted in it (wpd_blobs_count_in), by the sizes
+/* Bytes of the blob sets counted in it (wpd_blobs_open), by the sizes
  * their puts recorded (a failed put counts 0, though a part may be on disk
  * until the set is closed): now, and the most at any time. Updated
  * atomically: sets on several threads may share one. */
@@ -26,16 +26,14 @@ typedef struct wpd_blobs_use {
     uint64_t now, peak;
 } wpd_blobs_use;
 
-/* A set of blobs 0 .. nkeys - 1, all empty. Returns 0 with *out set, or -1
- * with err set. */
-int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs **out, wpd_error *err);
+/* A set of blobs 0 .. nkeys - 1, all empty, its bytes counted in *use until
+ * it is closed (use may be NULL: not counted). Returns 0 with *out set, or
+ * -1 with err set. */
+int wpd_blobs_open(const char *base_dir, size_t nkeys, wpd_blobs_use *use, wpd_blobs **out,
+                   wpd_error *err);
 
 /* Removes every file and the directory, frees the set. NULL allowed. */
 void wpd_blobs_close(wpd_blobs *b);
-
-/* Counts b's bytes in *use from now on (its blobs must all be empty yet),
- * until b is closed. */
-void wpd_blobs_count_in(wpd_blobs *b, wpd_blobs_use *use);
 
 /* Replaces blob key by bytes bytes of data and frees data (malloc'd), on
  * failure too. Returns 0 or -1 with err set. */
