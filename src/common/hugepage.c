@@ -37,7 +37,7 @@ void *wpd_calloc_large(size_t count, size_t size)
         return NULL;
     size_t bytes = count * size;
     if (bytes < WPD_HUGE_MIN)
-        return calloc(count ? count : 1, size ? size : 1);
+        return calloc(bytes ? count : 1, bytes ? size : 1);
     void *p = wpd_malloc_large(bytes);
     if (p)
         memset(p, 0, bytes);
