@@ -335,7 +335,7 @@ static void three_smallest(const gathered *near, const float *px, const float *p
 {
     float d[POINT_LANES];
     for (int k = 0; k < POINT_LANES; k++)
-        a0[k] = a1[k] = a2[k] = FLT_MAX; /* finite: a tag must not make it a NaN */
+        a0[k] = a1[k] = a2[k] = FLT_MAX; /* above every tagged value, as no sample */
     for (int j = 0; j < near->n; j++) {
         float qx = near->fx[j], qy = near->fy[j], qz = near->fz[j];
         uint32_t tag = (uint32_t)j;
@@ -343,6 +343,13 @@ static void three_smallest(const gathered *near, const float *px, const float *p
         for (int k = 0; k < POINT_LANES; k++) {
             float dx = qx - px[k], dy = qy - py[k], dz = qz - pz[k];
             float v = dx * dx + dy * dy + dz * dz;
+            /* A tag in the mantissa of an infinite value would make it a
+             * NaN (a cell above some 10^18), and one in zero a denormal,
+             * which a flush-to-zero mode compares equal to another: both
+             * are kept normal. Either clamp errs in the direction the gap
+             * test tolerates (a clamped third never passes for a second). */
+            v = v > FLT_MIN ? v : FLT_MIN;
+            v = v < FLT_MAX ? v : FLT_MAX;
             uint32_t bits;
             memcpy(&bits, &v, sizeof bits);
             bits = (bits & ~TAG_MASK) | tag;
@@ -393,7 +400,8 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
             const double *p = o->xyz + 3 * at;
             uint32_t *out = nearest ? nearest + o->val[at] : NULL;
             double mg;
-            /* The tags move each value by less than 2^-14 of it. */
+            /* The tags move each value by less than 2^-14 of it (by less
+             * than FLT_MIN, far below the slack, for a clamped zero). */
             if (!lanes || !(a2[k] - a1[k] > slack + 0x1p-12f * a2[k]) ||
                 (mg = inner_margin(g, c, p)) <= 0) {
                 add_one(e, near, have, c, p, out);

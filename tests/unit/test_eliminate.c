@@ -357,3 +357,42 @@ TEST(eliminate_names_each_points_strictly_nearest_sample)
     wpd_eliminate_free(&e);
     free(got), free(s), free(xyz);
 }
+
+/* The same sheet at scales far from the frame's usual ones: the queries'
+ * float distances stay normal numbers (below, a tagged zero would be a
+ * denormal; above, a squared distance of a cell past some 10^18 is
+ * infinite in float, and a tag would make it a NaN), and the costs and
+ * nearest samples are still the definition's. */
+TEST(eliminate_is_exact_at_any_scale)
+{
+    const double scales[] = {1e-15, 1e19};
+    for (size_t t = 0; t < sizeof scales / sizeof *scales; t++) {
+        uint64_t *gid;
+        size_t n = 4000, m;
+        double *xyz = sheet(n, 7, &gid);
+        double *s = poisson_samples(xyz, gid, n, 1.2, &m);
+        for (size_t i = 0; i < 3 * n; i++)
+            xyz[i] *= scales[t];
+        for (size_t j = 0; j < 3 * m; j++)
+            s[j] *= scales[t];
+        uint32_t *got = malloc(n * sizeof *got);
+        wpd_eliminate e;
+        wpd_error err = {0};
+        CHECK(wpd_eliminate_init(&e, s, NULL, m, 1.2 * scales[t], 0, 2, &err) == 0);
+        CHECK(wpd_eliminate_begin(&e, &err) == 0);
+        wpd_eliminate_add_points(&e, xyz, NULL, n, 2, got);
+        double *want = costs_by_brute_force(xyz, n, s, m);
+        size_t wrong = 0, wrong_nearest = 0;
+        for (size_t j = 0; j < m; j++) {
+            double cost;
+            memcpy(&cost, &e.cost[j], sizeof cost);
+            wrong += cost != want[j];
+        }
+        for (size_t i = 0; i < n; i++)
+            wrong_nearest += got[i] != strictly_nearest(xyz + 3 * i, s, NULL, m);
+        CHECK_MSG(wrong == 0 && wrong_nearest == 0, "scale %g: %zu of %zu costs, %zu of %zu "
+                  "nearest samples differ", scales[t], wrong, m, wrong_nearest, n);
+        wpd_eliminate_free(&e);
+        free(want), free(got), free(s), free(xyz), free(gid);
+    }
+}
