@@ -239,12 +239,21 @@ static void offer(const gathered *near, int j, const double *p, double b[2], uin
     }
 }
 
+/* How far the float squared distances of a 3 x 3 x 3 block may err, with
+ * room to spare: their error is relative 1e-6 of the block's squared size,
+ * bounded here by 1e-4. Both ways of finding two nearest samples in the
+ * floats rely on it. */
+static float float_slack(const wpd_grid *g)
+{
+    return (float)(1e-4 * 9 * g->cell * g->cell);
+}
+
 /* The two nearest of the gathered samples to p (inside the block, so that
  * the float coordinates are within 4.5 cells of the corner), exactly as a
  * search in double would give them: the float distances find the second
- * nearest to within their error (relative 1e-6 of the block's squared
- * size, bounded here by 1e-4), and every sample within that slack of it is
- * compared in double. Returns the number found (at most 2). */
+ * nearest to within their error (float_slack), and every sample within
+ * that slack of it is compared in double. Returns the number found (at
+ * most 2). */
 static int two_of_gathered(gathered *near, const wpd_grid *g, const double *p, double b[2],
                            uint32_t i[2])
 {
@@ -263,7 +272,7 @@ static int two_of_gathered(gathered *near, const wpd_grid *g, const double *p, d
     i[0] = i[1] = UINT32_MAX;
     if (n < 2)
         return n;
-    float slack = f1 + (float)(1e-4 * 9 * g->cell * g->cell);
+    float slack = f1 + float_slack(g);
     for (int j = 0; j < n; j++)
         if (fd[j] <= slack)
             offer(near, j, p, b, i);
@@ -380,7 +389,7 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
                      const int64_t c[3], gathered *near, int have, uint32_t *nearest)
 {
     const wpd_grid *g = &e->grid;
-    float slack = (float)(1e-4 * 9 * g->cell * g->cell);
+    float slack = float_slack(g);
     int lanes = have && near->n >= 3;
     for (size_t k0 = first; k0 < end; k0 += POINT_LANES) {
         int m = end - k0 < POINT_LANES ? (int)(end - k0) : POINT_LANES;
@@ -407,20 +416,10 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
                 add_one(e, near, have, c, p, out);
                 continue;
             }
-            uint32_t idx[2];
-            double d2[2];
-            for (int t = 0; t < 2; t++) {
-                uint32_t j = tag_of(t ? a1[k] : a0[k]);
-                const double *q = near->xyz + 3 * (size_t)j;
-                double dx = q[0] - p[0], dy = q[1] - p[1], dz = q[2] - p[2];
-                d2[t] = dx * dx + dy * dy + dz * dz;
-                idx[t] = near->id[j];
-            }
-            if (d2[1] < d2[0] || (d2[1] == d2[0] && idx[1] < idx[0])) {
-                double td = d2[0];
-                uint32_t ti = idx[0];
-                d2[0] = d2[1], idx[0] = idx[1], d2[1] = td, idx[1] = ti;
-            }
+            uint32_t idx[2] = {UINT32_MAX, UINT32_MAX};
+            double d2[2] = {INFINITY, INFINITY};
+            offer(near, (int)tag_of(a0[k]), p, d2, idx);
+            offer(near, (int)tag_of(a1[k]), p, d2, idx);
             if (d2[1] > mg * mg) { /* a sample beyond the block may be nearer */
                 add_one(e, NULL, 0, c, p, out);
                 continue;
