@@ -207,11 +207,9 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-int wpd_grid_build_knn(wpd_grid *g, const double *xyz, const uint32_t *subset, size_t n,
-                       int k, double cell_guess, int threads, wpd_error *err)
+double wpd_knn_median_kth(const wpd_grid *g, int k)
 {
-    if (wpd_grid_build(g, xyz, subset, n, cell_guess, threads, err) < 0)
-        return -1;
+    size_t n = g->n;
     if (n < 256)
         return 0;
     enum { PROBES = 64 };
@@ -227,7 +225,15 @@ int wpd_grid_build_knn(wpd_grid *g, const double *xyz, const uint32_t *subset, s
     if (m < PROBES / 2)
         return 0;
     qsort(dk, (size_t)m, sizeof *dk, cmp_double);
-    double median = dk[m / 2];
+    return dk[m / 2];
+}
+
+int wpd_grid_build_knn(wpd_grid *g, const double *xyz, const uint32_t *subset, size_t n,
+                       int k, double cell_guess, int threads, wpd_error *err)
+{
+    if (wpd_grid_build(g, xyz, subset, n, cell_guess, threads, err) < 0)
+        return -1;
+    double median = wpd_knn_median_kth(g, k);
     if (median > 0 && (median > 1.6 * g->cell || median < 0.4 * g->cell))
         return wpd_grid_build(g, xyz, subset, n, median, threads, err);
     return 0;

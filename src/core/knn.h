@@ -42,6 +42,11 @@ int wpd_knn(const wpd_grid *g, const double q[3], int k, uint32_t self,
 int wpd_grid_build_knn(wpd_grid *g, const double *xyz, const uint32_t *subset, size_t n,
                        int k, double cell_guess, int threads, wpd_error *err);
 
+/* The median distance from 64 of g's points, spread over its slots, to
+ * their k-th nearest other point; 0 when g has fewer than 256 points or
+ * fewer than half of those probes have k others. */
+double wpd_knn_median_kth(const wpd_grid *g, int k);
+
 /* wpd_knn returning grid slots instead of source indices: the neighbours'
  * coordinates are then g->xyz[3*slot ..], whatever array the grid was
  * built from. */
