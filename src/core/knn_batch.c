@@ -7,79 +7,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/grid_block.h"
 #include "core/knn.h"
-
-/* Points gathered around a cell at most; a more crowded block's points are
- * searched for alone. */
-#define GATHER_MAX 1024
 
 /* Points below the threshold that are sorted at most: more, and the
  * threshold is lowered. */
 #define BELOW_MAX 64
 
-/* The points of the 3 x 3 x 3 cells around a cell, also as floats relative
- * to the block's corner (within 3 cells of it, as are the queries). */
-typedef struct gathered {
-    int n;
-    int own;             /* position of the centre cell's first point */
-    double corner[3];
-    uint32_t id[GATHER_MAX];
-    double xyz[3 * GATHER_MAX];
-    float fx[GATHER_MAX], fy[GATHER_MAX], fz[GATHER_MAX];
-    float fd[GATHER_MAX]; /* one point's float squared distances to them */
-} gathered;
-
-/* Cell indices (column coordinates) of the cell holding slot s. */
-static void cell_of_slot(const wpd_grid *g, uint32_t s, int64_t c[3])
-{
-    for (int k = 0; k < 3; k++) {
-        int ax = g->axis[k];
-        int64_t v = wpd_grid_coord(g, ax, g->xyz[3 * (size_t)s + ax]);
-        c[k] = v < 0 ? 0 : v >= g->dim[ax] ? g->dim[ax] - 1 : v;
-    }
-}
-
-/* The points of the cells around c (whose first slot is first) into *out;
- * 0 when they do not fit. */
-static int gather(const wpd_grid *g, const int64_t c[3], uint32_t first, gathered *out)
-{
-    out->n = 0;
-    out->own = -1;
-    for (int k = 0; k < 3; k++)
-        out->corner[g->axis[k]] = g->origin[g->axis[k]] + (double)(c[k] - 1) * g->cell;
-    for (int64_t b = c[1] - 1; b <= c[1] + 1; b++)
-        for (int64_t a = c[0] - 1; a <= c[0] + 1; a++) {
-            uint32_t sb, se;
-            wpd_grid_column_slots(g, a, b, c[2] - 1, c[2] + 1, &sb, &se);
-            if (out->n + (int)(se - sb) > GATHER_MAX)
-                return 0;
-            if (first >= sb && first < se)
-                out->own = out->n + (int)(first - sb);
-            for (uint32_t s = sb; s < se; s++, out->n++) {
-                const double *q = g->xyz + 3 * (size_t)s;
-                out->id[out->n] = g->id[s];
-                memcpy(out->xyz + 3 * out->n, q, 3 * sizeof(double));
-                out->fx[out->n] = (float)(q[0] - out->corner[0]);
-                out->fy[out->n] = (float)(q[1] - out->corner[1]);
-                out->fz[out->n] = (float)(q[2] - out->corner[2]);
-            }
-        }
-    return out->own >= 0;
-}
-
-/* How far p lies inside the 3 x 3 x 3 cells around c (negative outside). */
-static double inner_margin(const wpd_grid *g, const int64_t c[3], const double *p)
-{
-    double margin = INFINITY;
-    for (int k = 0; k < 3; k++) {
-        int ax = g->axis[k];
-        double lo = g->origin[ax] + (double)(c[k] - 1) * g->cell;
-        double hi = g->origin[ax] + (double)(c[k] + 2) * g->cell;
-        double in = p[ax] - lo < hi - p[ax] ? p[ax] - lo : hi - p[ax];
-        margin = in < margin ? in : margin;
-    }
-    return margin;
-}
+typedef wpd_block gathered;
 
 /* How far two float squared distances within a 3 x 3 x 3 block may differ
  * from their order in double, with room to spare. Coordinates relative to
@@ -177,7 +112,7 @@ static int settle(const wpd_grid *g, gathered *near, const int64_t c[3], int own
     }
     /* A point beyond the block lies at least the margin away: it cannot
      * be nearer than the k-th, nor as near. */
-    double mg = inner_margin(g, c, p);
+    double mg = wpd_block_margin(g, c, p);
     return mg > 0 && d2[k - 1] < mg * mg;
 }
 
@@ -189,8 +124,9 @@ static size_t answer_cell(const wpd_grid *g, size_t nq, int k, const uint32_t *r
 {
     size_t alone = 0;
     int64_t c[3];
-    cell_of_slot(g, first, c);
-    int have = k < BELOW_MAX && gather(g, c, first, near);
+    wpd_grid_cell_of(g, g->xyz + 3 * (size_t)first, c);
+    int have = k < BELOW_MAX && wpd_block_gather(g, c, WPD_BLOCK_MAX, first, near) &&
+               near->own >= 0;
     /* The first threshold: the cell's squared size (its k-th neighbour lies
      * about 1 / 1.5 cell away), then the previous point's. */
     float t = (float)(g->cell * g->cell);

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "core/bits.h"
+#include "core/grid_block.h"
 #include "core/knn.h"
 #include "core/sort.h"
 
@@ -81,19 +82,6 @@ int wpd_eliminate_begin(wpd_eliminate *e, wpd_error *err)
     }
 }
 
-/* The grid's cell coordinates (in column order: axis[0], axis[1],
- * axis[2]) of the cell holding p, clamped into the grid, and its key in
- * the grid's slot order. */
-static uint64_t cell_of(const wpd_grid *g, const double *p, int64_t c[3])
-{
-    for (int k = 0; k < 3; k++) {
-        int ax = g->axis[k];
-        int64_t v = wpd_grid_coord(g, ax, p[ax]);
-        c[k] = v < 0 ? 0 : v >= g->dim[ax] ? g->dim[ax] - 1 : v;
-    }
-    return (uint64_t)c[2] | (uint64_t)c[0] << g->shift_a | (uint64_t)c[1] << g->shift_b;
-}
-
 /* Points are queried in blocks of this many, each sorted by the samples'
  * grid cell on the thread that queries it: the sort and the queries stay
  * in cache, and no thread waits for one sort of every point. */
@@ -117,7 +105,7 @@ static size_t order_block(const wpd_grid *g, const double *pts, const uint8_t *s
     for (size_t i = first; i < first + n; i++)
         if (!skip || !skip[i]) {
             int64_t c[3];
-            o->key[m] = cell_of(g, pts + 3 * i, c);
+            o->key[m] = wpd_grid_cell_of(g, pts + 3 * i, c);
             o->val[m] = (uint32_t)i;
             top |= o->key[m++];
         }
@@ -173,56 +161,12 @@ static void two_smallest(float *d, int n, float *f0, float *f1)
     *f1 = b[0];
 }
 
-/* The samples around a cell, also as floats relative to the corner of the
- * 3 x 3 x 3 block (within 4.5 cells of it): the distances to every sample
- * are computed in float, 4 or 8 at a time, and only the few within the
- * float error of the second-nearest are compared exactly. */
-typedef struct gathered {
-    int n;
-    double corner[3];
-    uint32_t id[GATHER_MAX];
-    double xyz[3 * GATHER_MAX];
-    float fx[GATHER_MAX], fy[GATHER_MAX], fz[GATHER_MAX];
-    float fd[GATHER_MAX + TWO_LANES]; /* room to pad to whole lane groups */
-} gathered;
-
-/* The samples of the cells around c into *out; 0 when they do not fit. */
-static int gather(const wpd_grid *g, const int64_t c[3], gathered *out)
-{
-    out->n = 0;
-    for (int k = 0; k < 3; k++)
-        out->corner[g->axis[k]] = g->origin[g->axis[k]] + (double)(c[k] - 1) * g->cell;
-    for (int64_t b = c[1] - 1; b <= c[1] + 1; b++)
-        for (int64_t a = c[0] - 1; a <= c[0] + 1; a++) {
-            uint32_t sb, se;
-            wpd_grid_column_slots(g, a, b, c[2] - 1, c[2] + 1, &sb, &se);
-            if (out->n + (int)(se - sb) > GATHER_MAX)
-                return 0;
-            for (uint32_t k = sb; k < se; k++, out->n++) {
-                const double *q = g->xyz + 3 * (size_t)k;
-                out->id[out->n] = g->id[k];
-                memcpy(out->xyz + 3 * out->n, q, 3 * sizeof(double));
-                out->fx[out->n] = (float)(q[0] - out->corner[0]);
-                out->fy[out->n] = (float)(q[1] - out->corner[1]);
-                out->fz[out->n] = (float)(q[2] - out->corner[2]);
-            }
-        }
-    return 1;
-}
-
-/* How far p lies inside the 3 x 3 x 3 cells around c (negative outside). */
-static double inner_margin(const wpd_grid *g, const int64_t c[3], const double *p)
-{
-    double margin = INFINITY;
-    for (int k = 0; k < 3; k++) {
-        int ax = g->axis[k];
-        double lo = g->origin[ax] + (double)(c[k] - 1) * g->cell;
-        double hi = g->origin[ax] + (double)(c[k] + 2) * g->cell;
-        double in = p[ax] - lo < hi - p[ax] ? p[ax] - lo : hi - p[ax]; /* fmin: a call */
-        margin = in < margin ? in : margin;
-    }
-    return margin;
-}
+/* The samples around a cell (core/grid_block.h): the distances to every
+ * sample are computed in float, 4 or 8 at a time, and only the few within
+ * the float error of the second-nearest are compared exactly. */
+typedef wpd_block gathered;
+_Static_assert(GATHER_MAX <= WPD_BLOCK_MAX && TWO_LANES <= WPD_BLOCK_PAD,
+               "the tags and the lanes fit a block");
 
 /* Offers sample j of near at exact squared distance from p to the two best
  * by (squared distance, index). */
@@ -287,7 +231,7 @@ static int two_nearest(const wpd_grid *g, gathered *near, int have, const int64_
                        const double *p, double hint, uint32_t idx[2], double d2[2])
 {
     if (have) {
-        double m = inner_margin(g, c, p);
+        double m = wpd_block_margin(g, c, p);
         double b[2];
         uint32_t i[2];
         if (m > 0 && two_of_gathered(near, g, p, b, i) == 2 && b[1] <= m * m) {
@@ -412,7 +356,7 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
             /* The tags move each value by less than 2^-14 of it (by less
              * than FLT_MIN, far below the slack, for a clamped zero). */
             if (!lanes || !(a2[k] - a1[k] > slack + 0x1p-12f * a2[k]) ||
-                (mg = inner_margin(g, c, p)) <= 0) {
+                (mg = wpd_block_margin(g, c, p)) <= 0) {
                 add_one(e, near, have, c, p, out);
                 continue;
             }
@@ -463,8 +407,8 @@ void wpd_eliminate_add_points(wpd_eliminate *e, const double *pts, const uint8_t
                 size_t end = k + 1;
                 while (end < m && o->key[end] == o->key[k])
                     end++;
-                cell_of(&e->grid, o->xyz + 3 * k, c);
-                int have = gather(&e->grid, c, near);
+                wpd_grid_cell_of(&e->grid, o->xyz + 3 * k, c);
+                int have = wpd_block_gather(&e->grid, c, GATHER_MAX, UINT32_MAX, near);
                 add_cell(e, o, k, end, c, near, have, nearest);
                 k = end;
             }
