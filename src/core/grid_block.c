@@ -33,23 +33,46 @@ int wpd_block_gather(const wpd_grid *g, const int64_t c[3], int max, uint32_t ow
                 const double *q = g->xyz + 3 * (size_t)s;
                 out->id[out->n] = g->id[s];
                 memcpy(out->xyz + 3 * out->n, q, 3 * sizeof(double));
-                out->fx[out->n] = (float)(q[0] - out->corner[0]);
-                out->fy[out->n] = (float)(q[1] - out->corner[1]);
-                out->fz[out->n] = (float)(q[2] - out->corner[2]);
+                float f[3];
+                wpd_block_local(g, out, q, f);
+                out->fx[out->n] = f[0], out->fy[out->n] = f[1], out->fz[out->n] = f[2];
             }
         }
     return 1;
 }
 
-double wpd_block_margin(const wpd_grid *g, const int64_t c[3], const double *p)
+int wpd_block_holds(const wpd_grid *g, const int64_t c[3], const double *p, double d2)
 {
+    /* Most points lie inside the block's edges as computed here by more
+     * than those can differ from the rounding that keyed the points (a few
+     * ulps of the coordinates, origin and edge: 2^-48 of their sum leaves
+     * room). */
     double margin = INFINITY;
     for (int k = 0; k < 3; k++) {
         int ax = g->axis[k];
         double lo = g->origin[ax] + (double)(c[k] - 1) * g->cell;
         double hi = g->origin[ax] + (double)(c[k] + 2) * g->cell;
-        double in = p[ax] - lo < hi - p[ax] ? p[ax] - lo : hi - p[ax]; /* fmin: a call */
+        double eps = (fabs(p[ax]) + fabs(g->origin[ax]) + fabs(hi) + fabs(lo)) * 0x1p-48;
+        double in = (p[ax] - lo < hi - p[ax] ? p[ax] - lo : hi - p[ax]) - eps; /* fmin: a call */
         margin = in < margin ? in : margin;
     }
-    return margin;
+    if (margin > 0 && d2 * (1 + 0x1p-38) < margin * margin) /* room for the roundings */
+        return 1;
+    /* Wider than sqrt(d2) by more than the roundings of the square root
+     * and of p - rho. */
+    double rho = sqrt(d2) * (1 + 0x1p-40);
+    /* Near an edge, the keys' own rounding: wpd_grid_coord never decreases
+     * as its value grows, so a point whose cell lies outside [lo, hi] is
+     * farther than rho along this axis. */
+    for (int k = 0; k < 3; k++) {
+        int ax = g->axis[k];
+        double m = rho + fabs(p[ax]) * 0x1p-50;
+        int64_t at = wpd_grid_coord(g, ax, p[ax]);
+        int64_t lo = wpd_grid_coord(g, ax, p[ax] - m), hi = wpd_grid_coord(g, ax, p[ax] + m);
+        lo = lo < 0 ? 0 : lo; /* the grid's points lie in its cells */
+        hi = hi > g->dim[ax] - 1 ? g->dim[ax] - 1 : hi;
+        if (at < c[k] - 1 || at > c[k] + 1 || lo < c[k] - 1 || hi > c[k] + 1)
+            return 0;
+    }
+    return 1;
 }

@@ -1,10 +1,16 @@
 /* grid_block.h - the points of the 3 x 3 x 3 cells around one cell of a
  * grid, gathered once for the queries of that cell's points, also as
- * floats relative to the block's corner: distances to all of them are then
- * computed in float, several at a time, and only the few that the floats
- * cannot order are compared in double. The exact count's two nearest
- * samples (method/eliminate.c) and every sample's k nearest
+ * floats in cell units from the block's corner: distances to all of them
+ * are then computed in float, several at a time, and only the few that the
+ * floats cannot order are compared in double. The exact count's two
+ * nearest samples (method/eliminate.c) and every sample's k nearest
  * (core/knn_batch.c) work this way.
+ *
+ * Why cell units: a float coordinate in [0, 3] errs by at most 2^-24 of 3
+ * whatever the cloud's scale, so a squared distance between two points of
+ * the block (at most 27) errs by a few 1e-6, and a fixed slack bounds it.
+ * In the cloud's units the squares of tiny cells underflow into denormals
+ * and those of huge cells overflow, where no relative bound holds.
  */
 #ifndef WPD_CORE_GRID_BLOCK_H
 #define WPD_CORE_GRID_BLOCK_H
@@ -24,7 +30,7 @@ typedef struct wpd_block {
     double corner[3];      /* minimum corner of the block */
     uint32_t id[WPD_BLOCK_MAX];
     double xyz[3 * WPD_BLOCK_MAX];
-    float fx[WPD_BLOCK_MAX], fy[WPD_BLOCK_MAX], fz[WPD_BLOCK_MAX];
+    float fx[WPD_BLOCK_MAX], fy[WPD_BLOCK_MAX], fz[WPD_BLOCK_MAX]; /* cell units */
     float fd[WPD_BLOCK_MAX + WPD_BLOCK_PAD]; /* one query's float distances */
 } wpd_block;
 
@@ -39,8 +45,19 @@ uint64_t wpd_grid_cell_of(const wpd_grid *g, const double *p, int64_t c[3]);
 int wpd_block_gather(const wpd_grid *g, const int64_t c[3], int max, uint32_t own_slot,
                      wpd_block *out);
 
-/* How far p lies inside the 3 x 3 x 3 cells around c (negative outside):
- * no point outside the block is nearer to p than that. */
-double wpd_block_margin(const wpd_grid *g, const int64_t c[3], const double *p);
+/* p as the block's floats: in cell units from its corner. */
+static inline void wpd_block_local(const wpd_grid *g, const wpd_block *b, const double *p,
+                                   float f[3])
+{
+    for (int a = 0; a < 3; a++)
+        f[a] = (float)((p[a] - b->corner[a]) * g->inv_cell);
+}
+
+/* 1 if p lies in the 3 x 3 x 3 cells around c and every point of the grid
+ * within sqrt(d2) of p (that far included) lies in them too, judged with
+ * the rounding that put the points in their cells (a margin computed from
+ * the cells' edges can differ from it by an ulp). Then no point outside
+ * the block is as near to p as d2. */
+int wpd_block_holds(const wpd_grid *g, const int64_t c[3], const double *p, double d2);
 
 #endif

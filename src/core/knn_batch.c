@@ -16,16 +16,13 @@
 
 typedef wpd_block gathered;
 
-/* How far two float squared distances within a 3 x 3 x 3 block may differ
- * from their order in double, with room to spare. Coordinates relative to
- * the corner lie within 3 cells, so each float coordinate and difference
- * errs by at most 2^-24 * 3 cells; a squared distance (at most 27 cells^2)
- * then by at most about 1.5e-5 cells^2, and a pair of them by twice that:
- * 9e-5 cells^2 leaves a factor 3. */
-static float float_slack(const wpd_grid *g)
-{
-    return (float)(9e-5 * g->cell * g->cell);
-}
+/* How far two float squared distances within the block (in cell units,
+ * core/grid_block.h) may differ from their order in double, with room to
+ * spare. A coordinate in [0, 3] errs by at most 2^-24 * 3, a difference of
+ * two (at most 2 apart: the query lies in the centre cell) by three times
+ * that, a squared distance (at most 12) with its own roundings by about
+ * 1.5e-5, and a pair of them by twice that: 9e-5 leaves a factor 3. */
+#define FLOAT_SLACK 9e-5f
 
 /* How many of near->fd[0..n) are at most t. */
 static int count_below(const gathered *near, float t)
@@ -96,7 +93,7 @@ static int settle(const wpd_grid *g, gathered *near, const int64_t c[3], int own
     /* Every point left out is at least bd[k] away in floats, every chosen
      * one at most bd[k - 1]: past the floats' error, the chosen are
      * strictly nearer in double. */
-    if (!(bd[k] - bd[k - 1] > float_slack(g)))
+    if (!(bd[k] - bd[k - 1] > FLOAT_SLACK))
         return 0;
     const double *p = near->xyz + 3 * own;
     for (int j = 0; j < k; j++) {
@@ -110,10 +107,13 @@ static int settle(const wpd_grid *g, gathered *near, const int64_t c[3], int own
         d2[at] = d;
         idx[at] = id;
     }
-    /* A point beyond the block lies at least the margin away: it cannot
-     * be nearer than the k-th, nor as near. */
-    double mg = wpd_block_margin(g, c, p);
-    return mg > 0 && d2[k - 1] < mg * mg;
+    /* wpd_knn skips every point with the query's index (a grid over a
+     * subset may hold one twice); here only the query's own slot is out. */
+    for (int j = 0; j < k; j++)
+        if (idx[j] == near->id[own])
+            return 0;
+    /* No point beyond the block as near as the k-th. */
+    return wpd_block_holds(g, c, p, d2[k - 1]);
 }
 
 /* Answers the points of one cell (slots first..end-1) whose index is below
@@ -127,9 +127,9 @@ static size_t answer_cell(const wpd_grid *g, size_t nq, int k, const uint32_t *r
     wpd_grid_cell_of(g, g->xyz + 3 * (size_t)first, c);
     int have = k < BELOW_MAX && wpd_block_gather(g, c, WPD_BLOCK_MAX, first, near) &&
                near->own >= 0;
-    /* The first threshold: the cell's squared size (its k-th neighbour lies
-     * about 1 / 1.5 cell away), then the previous point's. */
-    float t = (float)(g->cell * g->cell);
+    /* The first threshold: a cell, squared (the k-th neighbour lies about
+     * half a cell away), then the previous point's. */
+    float t = 1;
     for (uint32_t s = first; s < end; s++) {
         uint32_t i = g->id[s];
         if (i >= nq)

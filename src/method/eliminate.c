@@ -183,26 +183,24 @@ static void offer(const gathered *near, int j, const double *p, double b[2], uin
     }
 }
 
-/* How far the float squared distances of a 3 x 3 x 3 block may err, with
- * room to spare: their error is relative 1e-6 of the block's squared size,
- * bounded here by 1e-4. Both ways of finding two nearest samples in the
- * floats rely on it. */
-static float float_slack(const wpd_grid *g)
-{
-    return (float)(1e-4 * 9 * g->cell * g->cell);
-}
+/* How far the float squared distances of a 3 x 3 x 3 block (in cell
+ * units, core/grid_block.h) may err, with room to spare: a few 1e-6 of
+ * the block's squared size (9), bounded here by 1e-4 of it. Both ways of
+ * finding two nearest samples in the floats rely on it. */
+#define FLOAT_SLACK 9e-4f
 
 /* The two nearest of the gathered samples to p (inside the block, so that
- * the float coordinates are within 4.5 cells of the corner), exactly as a
+ * its float coordinates lie within the block's 3 cells), exactly as a
  * search in double would give them: the float distances find the second
- * nearest to within their error (float_slack), and every sample within
+ * nearest to within their error (FLOAT_SLACK), and every sample within
  * that slack of it is compared in double. Returns the number found (at
  * most 2). */
 static int two_of_gathered(gathered *near, const wpd_grid *g, const double *p, double b[2],
                            uint32_t i[2])
 {
-    float px = (float)(p[0] - near->corner[0]), py = (float)(p[1] - near->corner[1]),
-          pz = (float)(p[2] - near->corner[2]);
+    float f[3];
+    wpd_block_local(g, near, p, f);
+    float px = f[0], py = f[1], pz = f[2];
     int n = near->n;
     float *fd = near->fd;
 #pragma omp simd
@@ -216,7 +214,7 @@ static int two_of_gathered(gathered *near, const wpd_grid *g, const double *p, d
     i[0] = i[1] = UINT32_MAX;
     if (n < 2)
         return n;
-    float slack = f1 + float_slack(g);
+    float slack = f1 + FLOAT_SLACK;
     for (int j = 0; j < n; j++)
         if (fd[j] <= slack)
             offer(near, j, p, b, i);
@@ -231,10 +229,9 @@ static int two_nearest(const wpd_grid *g, gathered *near, int have, const int64_
                        const double *p, double hint, uint32_t idx[2], double d2[2])
 {
     if (have) {
-        double m = wpd_block_margin(g, c, p);
         double b[2];
         uint32_t i[2];
-        if (m > 0 && two_of_gathered(near, g, p, b, i) == 2 && b[1] <= m * m) {
+        if (two_of_gathered(near, g, p, b, i) == 2 && wpd_block_holds(g, c, p, b[1])) {
             idx[0] = i[0], idx[1] = i[1], d2[0] = b[0], d2[1] = b[1];
             return 2;
         }
@@ -282,7 +279,7 @@ static void add_one(wpd_eliminate *e, gathered *near, int have, const int64_t c[
 #define TAG_MASK ((1u << TAG_BITS) - 1)
 
 /* The three smallest tagged distances of each of the POINT_LANES points
- * (px, py, pz relative to near's corner) into a0 <= a1 <= a2. */
+ * (px, py, pz: near's floats, core/grid_block.h) into a0 <= a1 <= a2. */
 static void three_smallest(const gathered *near, const float *px, const float *py,
                            const float *pz, float *a0, float *a1, float *a2)
 {
@@ -297,7 +294,7 @@ static void three_smallest(const gathered *near, const float *px, const float *p
             float dx = qx - px[k], dy = qy - py[k], dz = qz - pz[k];
             float v = dx * dx + dy * dy + dz * dz;
             /* A tag in the mantissa of an infinite value would make it a
-             * NaN (a cell above some 10^18), and one in zero a denormal,
+             * NaN (a point far outside the block), and one in zero a denormal,
              * which a flush-to-zero mode compares equal to another: both
              * are kept normal. Either clamp errs in the direction the gap
              * test tolerates (a clamped third never passes for a second). */
@@ -333,7 +330,6 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
                      const int64_t c[3], gathered *near, int have, uint32_t *nearest)
 {
     const wpd_grid *g = &e->grid;
-    float slack = float_slack(g);
     int lanes = have && near->n >= 3;
     for (size_t k0 = first; k0 < end; k0 += POINT_LANES) {
         int m = end - k0 < POINT_LANES ? (int)(end - k0) : POINT_LANES;
@@ -341,10 +337,9 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
         float a0[POINT_LANES], a1[POINT_LANES], a2[POINT_LANES];
         if (lanes) {
             for (int k = 0; k < POINT_LANES; k++) {
-                const double *p = o->xyz + 3 * (k0 + (size_t)(k < m ? k : 0));
-                px[k] = (float)(p[0] - near->corner[0]);
-                py[k] = (float)(p[1] - near->corner[1]);
-                pz[k] = (float)(p[2] - near->corner[2]);
+                float f[3];
+                wpd_block_local(g, near, o->xyz + 3 * (k0 + (size_t)(k < m ? k : 0)), f);
+                px[k] = f[0], py[k] = f[1], pz[k] = f[2];
             }
             three_smallest(near, px, py, pz, a0, a1, a2);
         }
@@ -352,11 +347,9 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
             size_t at = k0 + (size_t)k;
             const double *p = o->xyz + 3 * at;
             uint32_t *out = nearest ? nearest + o->val[at] : NULL;
-            double mg;
             /* The tags move each value by less than 2^-14 of it (by less
              * than FLT_MIN, far below the slack, for a clamped zero). */
-            if (!lanes || !(a2[k] - a1[k] > slack + 0x1p-12f * a2[k]) ||
-                (mg = wpd_block_margin(g, c, p)) <= 0) {
+            if (!lanes || !(a2[k] - a1[k] > FLOAT_SLACK + 0x1p-12f * a2[k])) {
                 add_one(e, near, have, c, p, out);
                 continue;
             }
@@ -364,7 +357,8 @@ static void add_cell(wpd_eliminate *e, const block_order *o, size_t first, size_
             double d2[2] = {INFINITY, INFINITY};
             offer(near, (int)tag_of(a0[k]), p, d2, idx);
             offer(near, (int)tag_of(a1[k]), p, d2, idx);
-            if (d2[1] > mg * mg) { /* a sample beyond the block may be nearer */
+            /* p outside the block, or a sample beyond it as near */
+            if (!wpd_block_holds(g, c, p, d2[1])) {
                 add_one(e, NULL, 0, c, p, out);
                 continue;
             }

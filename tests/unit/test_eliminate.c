@@ -359,13 +359,14 @@ TEST(eliminate_names_each_points_strictly_nearest_sample)
 }
 
 /* The same sheet at scales far from the frame's usual ones: the queries'
- * float distances stay normal numbers (below, a tagged zero would be a
- * denormal; above, a squared distance of a cell past some 10^18 is
- * infinite in float, and a tag would make it a NaN), and the costs and
+ * float distances are in cell units (core/grid_block.h), so they neither
+ * underflow (in the cloud's units, cells of 1e-22 gave denormal squares
+ * that rounded out of order: 12 of 256 costs wrong) nor overflow (cells
+ * past some 10^18: infinite squares, NaNs with a tag), and the costs and
  * nearest samples are still the definition's. */
 TEST(eliminate_is_exact_at_any_scale)
 {
-    const double scales[] = {1e-15, 1e19};
+    const double scales[] = {1e-22, 1e-15, 1e19, 1e21};
     for (size_t t = 0; t < sizeof scales / sizeof *scales; t++) {
         uint64_t *gid;
         size_t n = 4000, m;

@@ -78,10 +78,10 @@ static int brute(const double *xyz, size_t n, uint32_t self, int k, uint32_t *id
 TEST(knn_batch_matches_brute_force)
 {
     const size_t n = 4000, nq = 3500;
-    const double scales[4] = {1, 1e-15, 1e15, 1e19};
+    const double scales[6] = {1, 1e-22, 1e-15, 1e15, 1e19, 1e21};
     const int ks[3] = {13, 6, 1};
     size_t settled_at_unit_scale = 0;
-    for (int sc = 0; sc < 4; sc++)
+    for (int sc = 0; sc < 6; sc++)
         for (int kk = 0; kk < 3; kk++) {
             int k = ks[kk];
             double *xyz = cloud(n, 7 + (uint64_t)sc, scales[sc]);
@@ -149,6 +149,39 @@ TEST(knn_batch_is_thread_independent)
     free(b);
     free(ca);
     free(cb);
+    wpd_grid_free(&g);
+    free(xyz);
+}
+
+/* A grid over a subset that names each point twice: wpd_knn skips every
+ * copy of the query's index, and so must the batch. k is odd: the other
+ * points come in pairs at equal distances, and an even k would end on a
+ * tie, which the batch leaves to the search anyway. */
+TEST(knn_batch_skips_every_copy_of_the_query)
+{
+    enum { K = 5 };
+    const size_t n = 1500;
+    double *xyz = cloud(n, 13, 1);
+    uint32_t *twice = malloc(2 * n * sizeof *twice);
+    for (size_t i = 0; i < 2 * n; i++)
+        twice[i] = (uint32_t)(i / 2);
+    wpd_grid g = {0};
+    wpd_error err;
+    CHECK(wpd_grid_build(&g, xyz, twice, 2 * n, 2, 2, &err) == 0);
+    CHECK(wpd_grid_build(&g, xyz, twice, 2 * n, 2 * wpd_knn_median_kth(&g, K), 2, &err) == 0);
+    uint32_t *idx = malloc(n * K * 4), want[K];
+    uint8_t *count = malloc(n);
+    double d2[K];
+    CHECK(wpd_knn_batch(&g, n, K, NULL, idx, NULL, count, 2, NULL, &err) == 0);
+    int bad = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        int got = wpd_knn(&g, xyz + 3 * (size_t)i, K, i, INFINITY, 0, want, d2);
+        bad += count[i] != got || memcmp(idx + K * (size_t)i, want, (size_t)got * 4) != 0;
+    }
+    CHECK_MSG(bad == 0, "%d of %zu points differ from wpd_knn", bad, n);
+    free(idx);
+    free(count);
+    free(twice);
     wpd_grid_free(&g);
     free(xyz);
 }
