@@ -44,9 +44,10 @@ static double exact_d2(const gathered *near, int j, const double *p)
 }
 
 /* The k nearest others of the gathered point own, exactly ordered, into
- * idx/d2; *t is the threshold to start from, and leaves as this point's
- * k-th float distance (the next point's start). Returns 0 when the floats
- * cannot settle them (the point is then searched for alone). */
+ * idx/d2; *t is the threshold to start from, and leaves a little above
+ * this point's (k+1)-th float distance (the next point's start). Returns 0
+ * when the floats cannot settle them (the point is then searched for
+ * alone). */
 static int settle(const wpd_grid *g, gathered *near, const int64_t c[3], int own, int k,
                   float *t, uint32_t *idx, double *d2)
 {
