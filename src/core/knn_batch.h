@@ -3,14 +3,16 @@
  * The answer is wpd_knn's, bit for bit: for each point, the k nearest
  * other points of the grid by (squared distance, source index). The grid
  * is walked cell by cell; the points of the 3 x 3 x 3 cells around a cell
- * are gathered once, as floats relative to the block's corner, and each of
- * the cell's points takes its float distance to all of them in one
- * vectorized loop. Those below a threshold (the previous point's k-th
- * distance, widened until enough pass) are sorted, and when the (k+1)-th
- * is clear of the k-th by more than the floats' error and the k-th lies
- * within the gathered cells, the first k are the answer, ordered exactly in
+ * are gathered once, as floats in cell units (core/grid_block.h), and each
+ * of the cell's points takes its float distance to all of them in one
+ * vectorized loop. Those below a threshold (from the previous point's
+ * (k+1)-th distance, moved until k + 1 to 2k + 8 pass) are sorted, and
+ * when the (k+1)-th is clear of the k-th by more than the floats' error
+ * and no point outside the gathered cells can be as near as the k-th
+ * (wpd_block_holds), the first k are the answer, ordered exactly in
  * double. Any other point (near ties, too few points around, a block too
- * crowded) is searched for alone with wpd_knn. One search a point keeps a
+ * crowded, an index the grid holds twice) is searched for alone with
+ * wpd_knn. One search a point keeps a
  * sorted list through unpredictable branches for every point it scans
  * (about 2 us at k = 13 on the smoothing's samples); here that happens
  * only for the few below the threshold. docs/engine.md, Speed.
