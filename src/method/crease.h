@@ -52,12 +52,19 @@
 #define WPD_CREASE_COS_MIN 0.86602540378443865
 #define WPD_CREASE_MIN_FACE 5
 /* Half-width of the band around the fitted line, in spacings. The truth's is
- * 0.5; chosen on the oblique survey (300 K, seeds 1-5, cap of a 1 % run) as
- * the narrowest band with precision and recall both >= 0.8 on all five:
- * 0.5 gives precision 0.89-0.92 and recall 0.77-0.82, 0.57 gives 0.83-0.86
- * and 0.80-0.85; on seeds 6-10, not used to choose it, 0.57 meets both on
- * four (seed 9: 0.81 / 0.78). docs/algorithm.md section 5. */
-#define WPD_CREASE_BAND 0.57
+ * 0.5; the fitted line's error puts truth points just outside a band of
+ * exactly that width. Chosen with the support rule (sharp.h) on the oblique
+ * survey (300 K, seeds 1-10, cap of a 1 % run) for the labels `resample
+ * --sharp` writes: there a crease counts by its length (the pass keeps one
+ * sample every r/2 along it), and where a scan row runs beside a ridge
+ * outside the truth's band its labelled points are the only ones the pass
+ * can keep, so a wide band costs precision. Precision / recall of the
+ * resampled labels (bench/sharp_labels.py): 0.57 gives 0.79-0.88 / 0.93-0.97
+ * (7 of 10 seeds with both >= 0.8), 0.55 0.81-0.89 / 0.93-0.97 (10), 0.53
+ * 0.82-0.91 / 0.93-0.97 (10); over every input point (`wpd edges`) 0.57
+ * gives 0.81-0.87 / 0.78-0.89 (9 of 10), 0.55 0.84-0.89 / 0.77-0.88 (8: seed
+ * 4's recall 0.796, seed 9's 0.768). docs/algorithm.md section 5. */
+#define WPD_CREASE_BAND 0.55
 #define WPD_CREASE_FLATNESS 0.15
 #define WPD_CREASE_MIN_VARIATION 0.004
 #define WPD_CREASE_MAX_VARIATION 0.15

@@ -30,8 +30,9 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp)
      * while smoothing reads them in and 4 through the tile's smoothing. */
     double smoothing = 74 + 422 * sample_fraction;
     /* --sharp: the labeller's grid over the view (coordinates and slot ids
-     * 28, cells ~4) and the labels (1), held through the Poisson pass. */
-    double poisson = sharp ? 128 + 33 : 128;
+     * 28, cells ~4), the labels (1) and the crease test's verdicts (1),
+     * held through the Poisson pass. */
+    double poisson = sharp ? 128 + 34 : 128;
     return smoothing > poisson ? (size_t)smoothing : (size_t)poisson;
 }
 

@@ -10,8 +10,9 @@
  *   dropped    removed for certain;
  *   candidate  undecided: own points, halo points of neighbours not yet
  *              processed, and points their owner could not decide.
- * Candidates farther than H - r0 from the box are blind: unseen points may
- * lie within r of them and their sharp label may be off. The three-valued
+ * Candidates farther than H - max(r, r0) from the box are blind (with
+ * --sharp H - max(r, 2 r0): a label looks that far, sharp.h): unseen points
+ * may lie within r of them and their sharp label may be off. The three-valued
  * pass (wpd_poisson_pass_certain) then decides each candidate KEPT or
  * REMOVED only where that is the one-block decision, and UNKNOWN where the
  * view cannot tell (a chain of decisions reaching past the halo). Round 1
@@ -248,8 +249,10 @@ static int build_view(const wpd_run *run, const pass_ctx *pc, int t, int threads
         labels_on_demand(run, &v->d, &v->label_grid, threads, 1, &v->edge, &v->labeller, err))
         return -1;
     const wpd_tile *tile = &run->plan.tiles[t];
-    /* r-balls past the halo, and sharp labels (computed within r0) */
-    double blind_from = run->halo - fmax(pc->r, run->res->radius_estimate);
+    /* r-balls past the halo, and sharp labels (computed from the points
+     * within WPD_SHARP_DEPTH r0) */
+    double label_depth = run->p->sharp ? WPD_SHARP_DEPTH : 1.0;
+    double blind_from = run->halo - fmax(pc->r, label_depth * run->res->radius_estimate);
     size_t ncand = 0, nfixed = 0, ntiles = (size_t)run->plan.ntiles;
     cursors at = {calloc(ntiles, sizeof *at.store), calloc(ntiles, sizeof *at.unknown)};
     int rc = at.store && at.unknown ? 0 : -1;

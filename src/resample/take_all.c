@@ -10,9 +10,9 @@
 #include "core/knn.h"
 #include "method/sharp.h"
 
-/* Sharp labels of the points of d, from the input within r0 of each (the
- * capped detector): exact for own points and halo points closer than
- * H - r0 to the box, the ones that are not blind. Every label, for the
+/* Sharp labels of the points of d, from the input within 2 r0 of each (the
+ * capped detector and its support): exact for own points and halo points closer than
+ * H - 2 r0 to the box, the ones that are not blind. Every label, for the
  * take-everything run (the Poisson passes ask for theirs: poisson.c). */
 static int label_sharp(const wpd_run *run, const wpd_tile_data *d, int threads, uint8_t **edge,
                        wpd_error *err)

@@ -169,11 +169,12 @@ static int label(const points *p, double cap, int threads, uint8_t *edge, wpd_ed
 
 static const char *verdict_name(int v)
 {
-    static const char *names[WPD_CREASE_VERDICTS] = {
+    static const char *names[WPD_SHARP_ALONE + 1] = {
         "on", "near (beyond the band)", "flat (one plane)", "a face with too few points",
         "rough (not two or three planes)", "shallow (under 30 degrees)", "crossing (not a fold)",
-        "one row (a steep face's plane not determined)"};
-    return v >= 0 && v < WPD_CREASE_VERDICTS ? names[v] : "?";
+        "one row (a steep face's plane not determined)",
+        "alone (no other crease point within 3 spacings)"};
+    return v >= 0 && v <= WPD_SHARP_ALONE ? names[v] : "?";
 }
 
 static void print_summary(const wpd_edges_summary *s, const char *truth)
@@ -182,9 +183,9 @@ static void print_summary(const wpd_edges_summary *s, const char *truth)
            (unsigned long long)s->points, (unsigned long long)s->labelled,
            100.0 * (double)s->labelled / (double)(s->points ? s->points : 1), s->seconds);
     printf("verdicts:");
-    for (int v = 0; v < WPD_CREASE_VERDICTS; v++)
+    for (int v = 0; v <= WPD_SHARP_ALONE; v++)
         printf(" %s %llu%s", verdict_name(v), (unsigned long long)s->by_verdict[v],
-               v + 1 < WPD_CREASE_VERDICTS ? "," : "\n");
+               v < WPD_SHARP_ALONE ? "," : "\n");
     if (!truth)
         return;
     double prec = s->labelled ? (double)s->true_positive / (double)s->labelled : 0;
@@ -196,7 +197,7 @@ static void print_summary(const wpd_edges_summary *s, const char *truth)
             printf("  %s = %d: %llu points, recall %.3f\n", truth, v,
                    (unsigned long long)s->truth_by_value[v],
                    (double)s->hit_by_value[v] / (double)s->truth_by_value[v]);
-    for (int v = 0; v < WPD_CREASE_VERDICTS; v++)
+    for (int v = 0; v <= WPD_SHARP_ALONE; v++)
         if (s->missed_by_verdict[v])
             printf("  missed, %s: %llu\n", verdict_name(v),
                    (unsigned long long)s->missed_by_verdict[v]);

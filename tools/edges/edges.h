@@ -31,7 +31,7 @@ typedef struct wpd_edges_summary {
     uint64_t truth, true_positive;          /* truth points; labelled among them */
     uint64_t truth_by_value[256], hit_by_value[256];
     uint64_t missed_by_verdict[16];        /* truth points not labelled, by verdict */
-    uint64_t by_verdict[16];               /* every point, by the crease test's verdict */
+    uint64_t by_verdict[16];               /* every point, by its verdict (wpd_sharp_verdicts) */
     double seconds;                        /* the detector alone */
 } wpd_edges_summary;
 
