@@ -1,8 +1,8 @@
 /* test_sharp.c - the sharp-feature detector: the crease test on folded
  * surfaces, labels on capped neighbourhoods that depend only on the points
  * within the cap (so a block labels its points, and its inner halo, as the
- * whole cloud does), and precision and recall against the ground truth of
- * `wpd synth --edge-truth`. */
+ * whole cloud does), the support rule against a brute-force oracle, and
+ * precision and recall against the ground truth of `wpd synth --edge-truth`. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -116,6 +116,108 @@ TEST(sharp_crease_test_rejects_volumes_and_planes)
     CHECK(wpd_crease_test(pts, 64, p, 0.1) == WPD_CREASE_ON);
     double q[3] = {0.3, 0, 0};
     CHECK(wpd_crease_test(pts, 64, q, 0.1) == WPD_CREASE_NEAR);
+}
+
+/* The sharp rule by brute force (sharp.h), as an oracle: the spacing from
+ * the 12th nearest other point closer than cap, the crease test on the
+ * nearest WPD_KNN_MAX points closer than both cap and WPD_SHARP_REACH
+ * spacings in (d2, x, y, z) order, then the support: another point, not at
+ * the same place, closer than WPD_SHARP_SUPPORT spacings and cap, on a
+ * crease by the test. */
+typedef struct near_pt {
+    double d2;
+    const double *p;
+} near_pt;
+
+static int near_order(const void *va, const void *vb)
+{
+    const near_pt *a = va, *b = vb;
+    if (a->d2 != b->d2)
+        return a->d2 < b->d2 ? -1 : 1;
+    for (int k = 0; k < 3; k++)
+        if (a->p[k] != b->p[k])
+            return a->p[k] < b->p[k] ? -1 : 1;
+    return 0;
+}
+
+static int brute_crease(const double *xyz, size_t n, size_t i, double cap, near_pt *a,
+                        double *spacing)
+{
+    const double *q = xyz + 3 * i;
+    size_t m = 0;
+    for (size_t j = 0; j < n; j++) {
+        const double *p = xyz + 3 * j;
+        double d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                    (p[2] - q[2]) * (p[2] - q[2]);
+        if (d2 < cap * cap)
+            a[m++] = (near_pt){d2, p};
+    }
+    if (m <= WPD_SHARP_SPACING_K)
+        return WPD_CREASE_SMALL_FACE;
+    qsort(a, m, sizeof *a, near_order);
+    *spacing = sqrt(a[WPD_SHARP_SPACING_K].d2 * M_PI / WPD_SHARP_SPACING_K);
+    double reach = fmin(WPD_SHARP_REACH * *spacing, cap);
+    double pts[3 * WPD_KNN_MAX];
+    int got = 0;
+    for (size_t j = 0; j < m && got < WPD_KNN_MAX && a[j].d2 < reach * reach; j++, got++)
+        memcpy(pts + 3 * got, a[j].p, 3 * sizeof(double));
+    return wpd_crease_test(pts, got, q, *spacing);
+}
+
+TEST(sharp_a_crease_point_needs_another_within_reach)
+{
+    /* Folds with the points near their ridges and valleys taken out, and
+     * points put back on the ridge at x = 3 one at a time, 2 apart, and on
+     * the ridge at x = 9 in pairs 0.1 and 0.5 apart (under a spacing, and
+     * between 2 and 3 of them): some crease verdicts stand alone, others
+     * have company. */
+    cloud f = folds(0.2, 0.5, 0.01, 6);
+    size_t n = 0;
+    double *xyz = malloc((3 * f.n + 21) * sizeof(double));
+    for (size_t i = 0; i < f.n; i++)
+        if (crease_plan_dist(f.xyz + 3 * i) >= 0.15)
+            memcpy(xyz + 3 * n++, f.xyz + 3 * i, 3 * sizeof(double));
+    static const double put[7][3] = {{3, 3.5, 1.5}, {3, 5.5, 1.5}, {3, 7.5, 1.5},
+                                     {9, 5.0, 1.5}, {9, 5.1, 1.5}, {9, 7.0, 1.5},
+                                     {9, 7.5, 1.5}};
+    memcpy(xyz + 3 * n, put, sizeof put);
+    n += 7;
+    double cap = 1.5;
+    uint8_t *raw = malloc(n), *verdict = malloc(n), *edge = malloc(n);
+    double *spacing = malloc(n * sizeof *spacing);
+    near_pt *a = malloc(n * sizeof *a);
+    for (size_t i = 0; i < n; i++)
+        raw[i] = (uint8_t)brute_crease(xyz, n, i, cap, a, &spacing[i]);
+    wpd_grid g = {0};
+    wpd_error err;
+    CHECK(wpd_grid_build(&g, xyz, NULL, n, 0.5, 2, &err) == 0);
+    wpd_sharp_verdicts(&g, cap, verdict, 2);
+    wpd_detect_sharp_capped(&g, 0, n, cap, edge, 2);
+    size_t wrong = 0, on = 0, alone = 0;
+    for (size_t i = 0; i < n; i++) {
+        int want = raw[i];
+        if (raw[i] == WPD_CREASE_ON) {
+            double radius = fmin(WPD_SHARP_SUPPORT * spacing[i], cap);
+            int company = 0;
+            for (size_t j = 0; j < n && !company; j++) {
+                double d2 = 0;
+                for (int k = 0; k < 3; k++)
+                    d2 += (xyz[3 * j + k] - xyz[3 * i + k]) * (xyz[3 * j + k] - xyz[3 * i + k]);
+                company = d2 > 0 && d2 < radius * radius && raw[j] == WPD_CREASE_ON;
+            }
+            want = company ? WPD_CREASE_ON : WPD_SHARP_ALONE;
+        }
+        on += want == WPD_CREASE_ON;
+        alone += want == WPD_SHARP_ALONE;
+        wrong += verdict[i] != want || edge[i] != (want == WPD_CREASE_ON);
+    }
+    CHECK_MSG(wrong == 0, "%zu of %zu verdicts or labels differ from the rule", wrong, n);
+    CHECK_MSG(on > 0 && alone > 0, "%zu supported and %zu lone crease points: both wanted", on,
+              alone);
+    printf("     %zu points: %zu on a supported crease, %zu alone\n", n, on, alone);
+    wpd_grid_free(&g);
+    free(raw), free(verdict), free(edge), free(spacing), free(a), free(xyz);
+    cloud_free(&f);
 }
 
 TEST(sharp_capped_labels_depend_only_on_the_points_within_cap)
