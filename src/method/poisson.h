@@ -127,8 +127,9 @@ typedef struct wpd_poisson_certain_input {
  * For a tile: with candidates = its own points and the undecided halo
  * points within H of its box, blind = those at H - r or more from the box,
  * fixed = the kept points of finished tiles within H + r, (b) holds; with
- * labels from wpd_detect_sharp_capped (cap <= r) over own + halo points,
- * (c) holds. Re-running every tile that has UNKNOWN own points, with the
+ * labels from wpd_detect_sharp_capped with cap c over own + halo points,
+ * which look WPD_SHARP_DEPTH c far (method/sharp.h), and blind = those at
+ * H - max(r, WPD_SHARP_DEPTH c) or more, (c) holds. Re-running every tile that has UNKNOWN own points, with the
  * others' certain decisions as fixed (KEPT) or dropped (REMOVED) points and
  * their UNKNOWN ones as candidates, settles at least the UNKNOWN point of
  * smallest priority of the whole cloud in each round (its tile sees only

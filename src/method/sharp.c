@@ -525,11 +525,15 @@ static int label_of(const wpd_grid *g, const double q[3], uint32_t id, double ca
     return verdict_of(g, q, id, cap, sc, raw) == WPD_CREASE_ON;
 }
 
-/* A verdict for every grid point (raw NULL when there is no memory for
- * it: the support tests then compute their verdicts again). */
+/* A verdict for every source index of the grid's points (a grid over a
+ * subset has indices up to the source's size); NULL when there is no
+ * memory for it: the support tests then compute their verdicts again. */
 static uint8_t *raw_verdicts(const wpd_grid *g)
 {
-    return calloc(g->n ? g->n : 1, 1);
+    uint32_t most = 0;
+    for (size_t s = 0; s < g->n; s++)
+        most = g->id[s] > most ? g->id[s] : most;
+    return calloc((size_t)most + 1, 1);
 }
 
 void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, double cap,
@@ -598,7 +602,7 @@ wpd_sharp_labeller *wpd_sharp_labeller_new(const wpd_grid *surface, const double
     l->raw = raw_verdicts(surface);
     l->scratch = calloc((size_t)l->callers, sizeof *l->scratch);
     l->count = calloc((size_t)l->callers, sizeof *l->count);
-    if (!l->raw || !l->scratch || !l->count) {
+    if (!l->scratch || !l->count) { /* without l->raw, verdicts are computed again */
         wpd_sharp_labeller_free(l);
         return NULL;
     }

@@ -63,7 +63,8 @@ void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, 
 /* Labels on demand, for the Poisson pass (method/poisson.h, wpd_labeller):
  * the label of source point i of the grid (coordinates xyz[3 i ..], the
  * array the grid was built from), the one wpd_detect_sharp_capped gives,
- * computed when asked and kept in edge[i]. `callers`: how many threads may
+ * computed when asked and kept in edge[i]. The crease test's verdicts are
+ * kept too (a byte a source index), for the support of the points around. `callers`: how many threads may
  * ask at once (1: one at a time, from any thread; more: OpenMP threads
  * 0 .. callers - 1). NULL out of memory. */
 typedef struct wpd_sharp_labeller wpd_sharp_labeller;

@@ -169,7 +169,7 @@ static void random_partition(world *w, int nb, uint64_t *st)
  * (KEPT; within H + r) or dropped (REMOVED), and otherwise a candidate.
  * Blind: candidates at distance >= H - r from the box, so that a non-blind
  * candidate's r-ball lies inside the view (the guarantee's condition b);
- * labels detected with cap r are then exact for every non-blind one (c).
+ * with labels detected with cap r, at H - 2 r, where they are exact (c).
  * Checks every certain decision, own or not, against the one-block pass;
  * writes the own decisions to next. Returns how many own points are
  * UNKNOWN, or -1 if the pass failed. */
@@ -196,7 +196,7 @@ static long run_block(world *w, int b, int use_others, const uint8_t *snap, uint
         for (size_t j = 0; j < nview; j++) {
             uint32_t i = w->view[j];
             w->bedge[i] = w->local_edge[j];
-            if (box_dist(bx, c->xyz + 3 * (size_t)i) < H - r)
+            if (box_dist(bx, c->xyz + 3 * (size_t)i) < H - WPD_SHARP_DEPTH * r)
                 w->label_wrong += w->bedge[i] != w->edge[i];
         }
         edge = w->bedge;
@@ -211,7 +211,8 @@ static long run_block(world *w, int b, int use_others, const uint8_t *snap, uint
             w->fedge[nfixed++] = w->edge ? w->edge[i] : 0;
         } else if (st != D_KEPT && st != D_REMOVED && d < H) {
             w->cand[ncand++] = (uint32_t)i;
-            w->blind[i] = d >= H - r;
+            /* Detected labels look WPD_SHARP_DEPTH caps far (sharp.h). */
+            w->blind[i] = d >= H - (w->labels == LABELS_DETECTED ? WPD_SHARP_DEPTH * r : r);
             w->wanted[i] = (uint8_t)own;
         }
     }
@@ -542,6 +543,26 @@ TEST(poisson_certain_blind_points_and_fixed_labels)
     CHECK(wpd_poisson_pass_certain(&t, kept, unk, &nu, &err) == 2 && nu == 0);
 }
 
+/* A ridge beside the cloud (4 x 4, spacing 0.1, faces 62 degrees apart),
+ * so that detected labels at cap r = 1 are sharp along a line: the crease
+ * test's lone verdicts in the clouds alone carry no label (no support). */
+static void add_ridge(cloud *c, uint64_t seed)
+{
+    size_t side = 40, add = side * side, n = c->n;
+    c->xyz = realloc(c->xyz, 3 * (n + add) * sizeof *c->xyz);
+    c->gid = realloc(c->gid, (n + add) * sizeof *c->gid);
+    uint64_t st = seed;
+    for (size_t j = 0; j < side; j++)
+        for (size_t i = 0; i < side; i++) {
+            double *p = c->xyz + 3 * (n + j * side + i);
+            p[0] = 10 + 0.1 * (i + 0.3 * unit(&st));
+            p[1] = 10 + 0.1 * (j + 0.3 * unit(&st));
+            p[2] = 3 + 0.6 * (2 - fabs(p[0] - 12)) + 0.005 * gauss(&st);
+            c->gid[n + j * side + i] = 6000000000ULL + 3 * (uint64_t)(j * side + i);
+        }
+    c->n = n + add;
+}
+
 TEST(poisson_certain_decisions_on_random_partitions_match_the_one_block_pass)
 {
     int max_rounds[NKINDS][NLABELS][2] = {{{0}}};
@@ -550,8 +571,15 @@ TEST(poisson_certain_decisions_on_random_partitions_match_the_one_block_pass)
     for (int kind = 0; kind < NKINDS; kind++)
         for (int labels = 0; labels < NLABELS; labels++) {
             cloud c = make_cloud(kind, 2500, 100 + (uint64_t)(kind * 3 + labels));
+            if (labels == LABELS_DETECTED)
+                add_ridge(&c, 7 + (uint64_t)kind);
             world w;
             world_init(&w, &c, labels, 1000 + (uint64_t)labels);
+            size_t sharp = 0;
+            for (size_t i = 0; labels == LABELS_DETECTED && i < c.n; i++)
+                sharp += w.edge[i];
+            CHECK_MSG(labels != LABELS_DETECTED || sharp > 20, "%s: %zu detected sharp points",
+                      kind_name[kind], sharp);
             uint64_t st = 17 * (uint64_t)(kind + 1) + (uint64_t)labels;
             for (size_t p = 0; p < partitions_per; p++) {
                 int nb = 2 + (int)(unit(&st) * 15); /* 2..16 */
