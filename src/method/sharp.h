@@ -64,9 +64,9 @@ void wpd_detect_sharp_capped(const wpd_grid *surface, size_t begin, size_t end, 
  * the label of source point i of the grid (coordinates xyz[3 i ..], the
  * array the grid was built from), the one wpd_detect_sharp_capped gives,
  * computed when asked and kept in edge[i]. The crease test's verdicts are
- * kept too (a byte a source index), for the support of the points around. `callers`: how many threads may
- * ask at once (1: one at a time, from any thread; more: OpenMP threads
- * 0 .. callers - 1). NULL out of memory. */
+ * kept too (a byte a source index), for the support of the points around.
+ * `callers`: how many threads may ask at once (1: one at a time, from any
+ * thread; more: OpenMP threads 0 .. callers - 1). NULL out of memory. */
 typedef struct wpd_sharp_labeller wpd_sharp_labeller;
 wpd_sharp_labeller *wpd_sharp_labeller_new(const wpd_grid *surface, const double *xyz, double cap,
                                            uint8_t *edge, int callers);
