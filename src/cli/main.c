@@ -24,9 +24,9 @@ typedef struct command {
 } command;
 
 static const command commands[] = {
-    {"info", wpd_cmd_info, NULL, "describe LAS/PLY files: format, count, bounds, schema, VLRs"},
+    {"info", wpd_cmd_info, NULL, "describe LAS, LAZ and PLY files: format, count, bounds, schema, VLRs"},
     {"convert", wpd_cmd_convert, NULL,
-     "stream points from one file (or several) into LAS or PLY"},
+     "stream points from one file (or several) into LAS, LAZ or PLY"},
     {"resample", NULL, wpd_cmd_resample, "resample to exactly N points (Weighted Poisson-disk)"},
     {"synth", wpd_synth_main, NULL, "generate a synthetic city-like LiDAR scan of any size"},
     {"metrics", wpd_metrics_main, NULL, "quality of a resampling: distances, density, spacing"},

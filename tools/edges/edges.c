@@ -212,8 +212,8 @@ static const char *usage_text =
     "  --truth DIM   compare with DIM (not 0: a sharp point), e.g. the edge_truth of\n"
     "                `wpd synth --edge-truth`: precision, recall, recall per value,\n"
     "                why the missed points were missed\n"
-    "  -o OUT        write the points of IN with the label as field \"edge\" (.las:\n"
-    "                an extra byte with its Extra Bytes VLR; .ply: uchar)\n"
+    "  -o, --output OUT  write the points of IN with the label as field \"edge\"\n"
+    "                (.las: an extra byte with its Extra Bytes VLR; .ply: uchar)\n"
     "  --threads T   OpenMP threads (default: all cores)\n"
     "  --force       replace OUT if it exists\n"
     "The cloud is held in memory (about 60 bytes per point).\n";

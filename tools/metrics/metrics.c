@@ -506,8 +506,8 @@ void wpd_metrics_write_text(FILE *f, const wpd_metrics *m)
 
 static const char *usage_text =
     "usage: wpd metrics [--json] ORIGINAL RESAMPLED\n"
-    "Measures how well RESAMPLED (LAS or PLY) represents ORIGINAL: Hausdorff and\n"
-    "mean distances both ways (also divided by the original's bounding-box\n"
+    "Measures how well RESAMPLED (LAS, LAZ or PLY) represents ORIGINAL: Hausdorff\n"
+    "and mean distances both ways (also divided by the original's bounding-box\n"
     "diagonal), the paper's local density error (k = 6 mean neighbour distance:\n"
     "range, mean, coefficient of variation), its Voronoi density error (cell\n"
     "areas in the tangent plane among 12 neighbours; open cells skipped), the\n"

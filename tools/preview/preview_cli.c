@@ -14,7 +14,7 @@ static const char *usage_text =
     "usage: wpd preview FILE -o OUT.png [--width W] [--height H] [--label DIM]\n"
     "                   [--crop X0,Y0,X1,Y1] [--force]\n"
     "       wpd preview BEFORE AFTER -o OUT.png [same options]\n"
-    "Draws a LAS or PLY point cloud as a PNG: an oblique orthographic view\n"
+    "Draws a LAS, LAZ or PLY point cloud as a PNG: an oblique orthographic view\n"
     "(azimuth 30, elevation 35 degrees) fitted to the image, coloured by the\n"
     "file's RGB when it has any, else by height (viridis). With two files, the\n"
     "two side by side in the same view and scale (BEFORE's bounds), each above\n"
