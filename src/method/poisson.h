@@ -123,7 +123,7 @@ typedef struct wpd_poisson_certain_input {
  *       radius) to a non-blind candidate is a candidate or a fixed point;
  *   (c) every non-blind candidate has its true label in edge;
  * then every KEPT candidate is kept by the reference and every REMOVED one
- * is removed by it, blind candidates included (proof in poisson.c).
+ * is removed by it, blind candidates included (proof in poisson_certain.c).
  * For a tile: with candidates = its own points and the undecided halo
  * points within H of its box, blind = those at H - r or more from the box,
  * fixed = the kept points of finished tiles within H + r, (b) holds; with

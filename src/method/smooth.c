@@ -553,7 +553,7 @@ static int iterate(const wpd_smooth_input *in, frames *f, guards *g, const doubl
  * An even step moves samples onto input points where the spacing is
  * uneven, which leaves cells uneven that the next Voronoi step evens, and
  * so on: on the 18 quality cases, 5 Voronoi and 4 even steps alternated
- * met every criterion in 18 (17 with seeds 1-3), the same steps with the
+ * met every criterion in 18 (15, 17 and 17 with seeds 1-3), the same steps with the
  * even ones after the Voronoi ones in 16 (the Voronoi CV of the cases at
  * 10 % above the baselines'; docs/algorithm.md section 4). */
 static int even_step(int it, int voronoi, int even)

@@ -696,9 +696,10 @@ static void pass_ctx_free(const wpd_run *run, pass_ctx *pc)
 }
 
 /* Full passes until one keeps at least n samples (refine.h); the exact
- * count deletes the surplus. Passes never run at a radius above the
- * estimate (only an undershoot changes r, and shrinks it), so the halo of
- * 2.5 r0 always holds the r-ball of every own point. */
+ * count deletes the surplus. A pass runs at most at 1.25 r0 (a first pass
+ * far above n is redone at a larger radius, capped there; an undershoot
+ * shrinks r), so the halo of 2.5 r0 always holds the r-ball of every own
+ * point, and blind points are those farther than H - max(r, r0). */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err)
 {
     size_t n = run->opt->target, count = 0;
