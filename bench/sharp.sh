@@ -66,9 +66,13 @@ run_case() {
         printf '%-10s base sharp wall %7.2f cpu %7.2f poisson %6.2f; this / base: wall %.3fx, cpu %.3fx\n' \
             "" "$bw" "$bc" "$bp" "$(echo "$sw / $bw" | bc -l)" "$(echo "$sc / $bc" | bc -l)"
     fi
+    # (an if, not &&: without a base the last test fails, and set -e would
+    # end the script after the first case)
     for v in plain sharp base; do
-        [ -f "$out/${name}_$v.tsv" ] && printf '%-10s   %s runs (wall cpu poisson rss): %s\n' "" "$v" \
-            "$(tr '\n' ';' <"$out/${name}_$v.tsv")"
+        if [ -f "$out/${name}_$v.tsv" ]; then
+            printf '%-10s   %s runs (wall cpu poisson rss): %s\n' "" "$v" \
+                "$(tr '\n' ';' <"$out/${name}_$v.tsv")"
+        fi
     done
 }
 
