@@ -507,6 +507,23 @@ static int night_target(const resample_options *o, uint64_t count, uint64_t *tar
     return 0;
 }
 
+/* The report is written whatever is there (a cron job rewrites its report
+ * every night), but never over an input or the output: refused before any
+ * work, as an output that is an input is. */
+static int report_check(const resample_options *o, char *const *inputs, int ninputs,
+                        wpd_error *err)
+{
+    if (!o->report)
+        return 0;
+    if (wpd_path_is_one_of(o->report, inputs, ninputs))
+        return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace an input", o->report);
+    char *const out[1] = {(char *)o->output};
+    if (o->output && (!strcmp(o->report, o->output) || wpd_path_is_one_of(o->report, out, 1)))
+        return wpd_fail(err, WPD_E_USAGE, "%s: the report and the output are one file",
+                        o->report);
+    return 0;
+}
+
 /* The run; rank 0 (the writer) also writes the outputs and delivers them
  * once every rank has succeeded. */
 static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *err)
@@ -514,6 +531,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     wpd_cloud *cloud = NULL;
     char buf[1024];
     const char *dir = spill_dir(o, buf, sizeof buf);
+    if (report_check(o, inputs, ninputs, err))
+        return wpd_ranks_outcome(o->par, -1, err);
     if (o->coll) {
         int nnew = 0, rc = plan_night(inputs, ninputs, o, &nnew, err);
         if (rc || nnew == 0)
@@ -654,12 +673,28 @@ static int locked_run(char **inputs, int ninputs, resample_options *o, wpd_error
     return rc;
 }
 
+/* --per-input's folder must exist: a cron line with a mistyped folder is
+ * told so in one line, not by a file the run failed to create in it. */
+static int per_input_folder_check(const char *dir, wpd_error *err)
+{
+    struct stat st;
+    if (stat(dir, &st) != 0)
+        return errno == ENOENT
+                   ? wpd_fail(err, WPD_E_USAGE, "%s: no such folder (create it first)", dir)
+                   : wpd_fail_errno(err, "%s", dir);
+    if (!S_ISDIR(st.st_mode))
+        return wpd_fail(err, WPD_E_USAGE, "%s: not a folder (--per-input names a folder)", dir);
+    return 0;
+}
+
 /* The command after its options are parsed. */
 static int run_command(char **inputs, int ninputs, resample_options *o)
 {
     if (o->params.threads > 0)
         omp_set_num_threads(o->params.threads);
     wpd_error err = {0};
+    if (o->per_input && per_input_folder_check(o->per_input, &err))
+        return wpd_par_rank(o->par) == 0 ? wpd_report_error("resample", &err) : (int)err.code;
     if (o->skip_existing &&
         (ninputs = wpd_output_keep_stale(inputs, ninputs, o->per_input)) == 0) {
         if (!o->quiet)

@@ -6,6 +6,7 @@ import json
 import os
 import re
 import resource
+import shutil
 import signal
 import subprocess
 import time
@@ -108,6 +109,42 @@ def test_force_replaces_and_output_cannot_be_an_input():
     assert read_las("out.las")["count"] == 50
     p = wpd("resample", "out.las", "-o", "out.las", "-n", 10, "--force", check=False)
     assert p.returncode == 1 and "also an input" in p.stderr
+
+
+def test_per_input_names_a_folder_that_exists():
+    src = data("las", "pdal_simple.las")
+    p = wpd("resample", src, "--per-input", "missing", "-n", 100, check=False)
+    assert p.returncode == 1 and "missing: no such folder" in p.stderr, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1 and not os.path.exists("missing")
+    with open("afile", "w") as f:
+        f.write("x")
+    p = wpd("resample", src, "--per-input", "afile", "-n", 100, check=False)
+    assert p.returncode == 1 and "afile: not a folder" in p.stderr, p.stderr
+    os.mkdir("thin")
+    wpd("resample", src, "--per-input", "thin", "-n", 100)
+    assert read_las(os.path.join("thin", os.path.basename(src)))["count"] == 100
+
+
+def test_the_report_never_replaces_an_input_or_the_output():
+    src = data("las", "pdal_simple.las")
+    shutil.copy(src, "in.las")
+    with open("in.las", "rb") as f:
+        before = f.read()
+    p = wpd("resample", "in.las", "-o", "out.las", "-n", 100, "--report", "in.las", check=False)
+    assert p.returncode == 1 and "would replace an input" in p.stderr, p.stderr
+    with open("in.las", "rb") as f:
+        assert f.read() == before
+    assert not os.path.exists("out.las") and leftovers(".") == []
+    p = wpd("resample", "in.las", "-o", "out.las", "-n", 100, "--report", "out.las",
+            check=False)
+    assert p.returncode == 1 and "one file" in p.stderr, p.stderr
+    assert not os.path.exists("out.las")
+    # A report that exists is rewritten (a nightly job keeps one path).
+    with open("run.json", "w") as f:
+        f.write("old")
+    wpd("resample", "in.las", "-o", "out.las", "-n", 100, "--report", "run.json")
+    with open("run.json") as f:
+        assert json.load(f)["output_points"] == 100
 
 
 def test_lock_keeps_two_runs_apart():
