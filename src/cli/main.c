@@ -24,7 +24,8 @@ typedef struct command {
 } command;
 
 static const command commands[] = {
-    {"info", wpd_cmd_info, NULL, "describe LAS, LAZ and PLY files: format, count, bounds, schema, VLRs"},
+    {"info", wpd_cmd_info, NULL,
+     "describe LAS, LAZ and PLY files: format, count, bounds, schema, VLRs"},
     {"convert", wpd_cmd_convert, NULL,
      "stream points from one file (or several) into LAS, LAZ or PLY"},
     {"resample", NULL, wpd_cmd_resample, "resample to exactly N points (Weighted Poisson-disk)"},
