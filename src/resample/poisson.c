@@ -699,7 +699,8 @@ static void pass_ctx_free(const wpd_run *run, pass_ctx *pc)
  * count deletes the surplus. A pass runs at most at 1.25 r0 (a first pass
  * far above n is redone at a larger radius, capped there; an undershoot
  * shrinks r), so the halo of 2.5 r0 always holds the r-ball of every own
- * point, and blind points are those farther than H - max(r, r0). */
+ * point, and blind points are those farther than H - max(r, r0) (with
+ * --sharp H - max(r, 2 r0): build_view). */
 int wpd_poisson_phase(wpd_run *run, wpd_error *err)
 {
     size_t n = run->opt->target, count = 0;
