@@ -10,6 +10,7 @@
 #include "core/bits.h"
 #include "core/grid_block.h"
 #include "core/knn.h"
+#include "core/knn_batch.h"
 #include "core/sort.h"
 
 /* Average samples an occupied cell of the elimination's grid holds at least
@@ -420,6 +421,34 @@ double wpd_eliminate_nearest(const wpd_eliminate *e, uint32_t s)
     return got ? sqrt(d2[0]) : e->reach;
 }
 
+void wpd_eliminate_nearest_all(const wpd_eliminate *e, double *nn)
+{
+    size_t m = e->n ? e->n : 1;
+    uint32_t *idx = malloc(m * sizeof *idx);
+    double *d2 = malloc(m * sizeof *d2);
+    uint8_t *count = malloc(m);
+    wpd_error ignored;
+    /* The batch gives wpd_knn's nearest without a limit; one beyond the
+     * reach is no answer, as wpd_knn's limit (d2 <= reach^2) has it. */
+    if (idx && d2 && count &&
+        wpd_knn_batch(&e->grid, e->n, 1, NULL, idx, d2, count, e->threads, NULL, &ignored) == 0) {
+        double reach2 = e->reach * e->reach;
+#pragma omp parallel for num_threads(e->threads) schedule(static)
+        for (size_t i = 0; i < e->live; i++) {
+            uint32_t s = e->live_idx[i];
+            nn[s] = count[s] && d2[s] <= reach2 ? sqrt(d2[s]) : e->reach;
+        }
+    } else {
+        /* Without memory for the batch, one search a sample: the same. */
+#pragma omp parallel for num_threads(e->threads) schedule(dynamic, 1024)
+        for (size_t i = 0; i < e->live; i++)
+            nn[e->live_idx[i]] = wpd_eliminate_nearest(e, e->live_idx[i]);
+    }
+    free(idx);
+    free(d2);
+    free(count);
+}
+
 /* The squared cost, relative to the sample's own radius (a sample of
  * radius r/2 costs 4 times its squared hole): which samples a sweep may
  * take (the candidates below). */
@@ -549,12 +578,9 @@ static double kth_smallest(double *a, size_t m, size_t k)
  * Returns 0. */
 static int crowding(const wpd_eliminate *e, double *crowd, double *tmp)
 {
-#pragma omp parallel for num_threads(e->threads) schedule(dynamic, 1024)
-    for (size_t i = 0; i < e->live; i++) {
-        uint32_t s = e->live_idx[i];
-        crowd[s] = wpd_eliminate_nearest(e, s);
-        tmp[i] = crowd[s];
-    }
+    wpd_eliminate_nearest_all(e, crowd);
+    for (size_t i = 0; i < e->live; i++)
+        tmp[i] = crowd[e->live_idx[i]];
     if (e->live == 0)
         return 0;
     double med = kth_smallest(tmp, e->live, e->live / 2);

@@ -77,6 +77,11 @@ int wpd_eliminate_init(wpd_eliminate *e, const double *xyz, const uint8_t *half,
  * nearest other live sample, or the reach when none lies within it. */
 double wpd_eliminate_nearest(const wpd_eliminate *e, uint32_t s);
 
+/* wpd_eliminate_nearest of every live sample s into nn[s] (nn: room for
+ * e->n; other entries untouched), the same values, all at once (a batch
+ * k-NN: core/knn_batch.h). */
+void wpd_eliminate_nearest_all(const wpd_eliminate *e, double *nn);
+
 /* A squared cost (bits of a double) as the sweep ranks it: 4 times for a
  * sample of radius r/2. */
 static inline double wpd_eliminate_cost_of(uint64_t cost_bits, int half)

@@ -223,12 +223,16 @@ static int cost_tile(wpd_run *run, int t, int threads, void *arg, wpd_error *err
     wpd_tiles_release(&run->tiles, &d);
     if (failed)
         goto done;
+    double *nn = malloc((v.n ? v.n : 1) * sizeof *nn);
+    if (nn)
+        wpd_eliminate_nearest_all(&e, nn);
     for (size_t i = 0; i < s->n; i++) {
         x->cost[i] = e.cost[v.at[i]];
-        x->nn[i] = wpd_eliminate_nearest(&e, v.at[i]);
+        x->nn[i] = nn ? nn[v.at[i]] : wpd_eliminate_nearest(&e, v.at[i]);
         if (x->half)
             x->half[i] = (uint8_t)half_of(s, i);
     }
+    free(nn);
     rc = wpd_exact_keep(sw, t, EF_COSTS, err);
 done:
     if (rc)

@@ -206,6 +206,51 @@ TEST(core_knn_matches_brute_force)
     free(xyz);
 }
 
+/* A hint is a guess of the k-th distance: the first box is scanned with
+ * its bound there, and whatever the guess - far too small, the k-th
+ * distance itself or a hair either side of it, far too large, beyond
+ * max_dist - the answer is the brute force's, also where fewer than k
+ * points exist at all (the box then holds the whole grid). */
+TEST(core_knn_hints_never_change_the_answer)
+{
+    size_t n = 2000;
+    double *xyz = mixed_points(n, 5);
+    wpd_error err;
+    uint64_t s = 9;
+    for (int c = 0; c < 2; c++) {
+        wpd_grid g = {0};
+        size_t m = c ? 9 : n; /* 9 points: fewer than k = 13 */
+        CHECK(wpd_grid_build(&g, xyz, NULL, m, c ? 3.0 : 0.6, 1, &err) == 0);
+        for (int t = 0; t < 120; t++) {
+            uint32_t self = (uint32_t)(unit(&s) * (double)m);
+            const double *q = xyz + 3 * (size_t)self;
+            int k = t % 2 ? 13 : 7;
+            double max_dist = t % 5 == 0 ? 0.7 : INFINITY;
+            uint32_t bidx[16];
+            double bd2[16];
+            int bc;
+            brute_knn(xyz, m, q, k, self, bidx, bd2, &bc);
+            while (bc > 0 && bd2[bc - 1] > max_dist * max_dist)
+                bc--;
+            double dk = bc ? sqrt(bd2[bc - 1]) : 1;
+            double hints[] = {1e-6, 0.5 * dk, nextafter(dk, 0), dk, nextafter(dk, INFINITY),
+                              3 * dk, 1e6};
+            for (int h = 0; h < (int)(sizeof hints / sizeof *hints); h++) {
+                uint32_t idx[16];
+                double d2[16];
+                int got = wpd_knn(&g, q, k, self, max_dist, hints[h], idx, d2);
+                int same = got == bc;
+                for (int j = 0; same && j < got; j++)
+                    same = idx[j] == bidx[j] && d2[j] == bd2[j];
+                CHECK_MSG(same, "grid %d query %d (k %d) hint %g: %d found, brute force %d",
+                          c, t, k, hints[h], got, bc);
+            }
+        }
+        wpd_grid_free(&g);
+    }
+    free(xyz);
+}
+
 TEST(core_knn_many_is_thread_independent)
 {
     size_t n = 2000;

@@ -255,6 +255,48 @@ TEST(eliminate_deletions_of_one_sweep_stay_apart)
     free(cost), free(s), free(xyz), free(gid);
 }
 
+/* The nearest live sample of every live sample at once is the one-by-one
+ * search's, bit for bit: after a sweep (a live subset), with the reach
+ * cutting some answers short and without, on 1 and 2 threads. */
+TEST(eliminate_nearest_all_is_each_samples_nearest)
+{
+    uint64_t *gid;
+    size_t n = 4000, m;
+    double *xyz = sheet(n, 8, &gid);
+    double *s = poisson_samples(xyz, gid, n, 0.7, &m);
+    double reaches[2] = {0, 1.0};
+    for (int r = 0; r < 2; r++)
+        for (int threads = 1; threads <= 2; threads++) {
+            wpd_eliminate e;
+            wpd_error err = {0};
+            CHECK(wpd_eliminate_init(&e, s, NULL, m, 0.7, reaches[r], threads, &err) == 0);
+            CHECK(wpd_eliminate_begin(&e, &err) == 0);
+            wpd_eliminate_add_points(&e, xyz, NULL, n, threads, NULL);
+            CHECK(wpd_eliminate_sweep(&e, m / 2, &err) > 0);
+            CHECK(wpd_eliminate_begin(&e, &err) == 0);
+            double *nn = malloc(m * sizeof *nn);
+            for (size_t i = 0; i < m; i++)
+                nn[i] = -1;
+            wpd_eliminate_nearest_all(&e, nn);
+            size_t differ = 0, capped = 0, dead = 0;
+            for (size_t i = 0; i < m; i++) {
+                if (!e.alive[i]) {
+                    dead += nn[i] != -1;
+                    continue;
+                }
+                differ += nn[i] != wpd_eliminate_nearest(&e, (uint32_t)i);
+                capped += nn[i] == e.reach;
+            }
+            CHECK_MSG(differ == 0 && dead == 0, "reach %g, %d threads: %zu differ, %zu dead "
+                      "samples written", reaches[r], threads, differ, dead);
+            if (r == 1)
+                CHECK_MSG(capped > 0, "no answer cut short by the reach: the test tests less");
+            free(nn);
+            wpd_eliminate_free(&e);
+        }
+    free(s), free(xyz), free(gid);
+}
+
 TEST(eliminate_result_does_not_depend_on_blocks_or_threads)
 {
     uint64_t *gid;
