@@ -465,9 +465,7 @@ static void plan_even_moves(const wpd_smooth_input *in, frames *f, const double 
         if (f->half && f->half[o])
             continue;
         wpd_even_limits lim = {step_max, floor, f->start + 3 * o,
-                               WPD_SMOOTH_WANDER_MAX * in->spacing,
-                               wpd_surface_memo_reach(f->memo + o, prev + 3 * o,
-                                                      WPD_EVEN_CANDIDATES)};
+                               WPD_SMOOTH_WANDER_MAX * in->spacing};
         uint32_t onto[WPD_EVEN_TRIES];
         int tries = wpd_even_candidates(&v, in->surface, o, &lim, onto);
         /* Each point as the output will store it, and the cap covers them

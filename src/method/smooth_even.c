@@ -172,9 +172,8 @@ int wpd_even_candidates(const wpd_even_view *v, const wpd_grid *surface, size_t 
     const double *p = v->prev + 3 * o;
     const uint32_t *l = v->nb + o * (size_t)v->k;
     uint32_t cand[WPD_EVEN_CANDIDATES];
-    double first = lim->near8 > 0 && lim->near8 < lim->reach ? lim->near8 : lim->reach;
-    int found = wpd_knn_slots(surface, p, WPD_EVEN_CANDIDATES, WPD_NO_SELF, lim->reach, first,
-                              cand, NULL);
+    int found = wpd_knn_slots(surface, p, WPD_EVEN_CANDIDATES, WPD_NO_SELF, lim->reach,
+                              lim->reach, cand, NULL);
     int got = drop_where_it_stands(surface, p, cand, found);
     if (got == 0)
         return 0;

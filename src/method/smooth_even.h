@@ -56,9 +56,6 @@ typedef struct wpd_even_limits {
     double floor;           /* and at least this far from every listed neighbour */
     const double *start;    /* and within wander of here (the Poisson position) */
     double wander;
-    double near8;           /* a distance within which the sample has its
-                               WPD_EVEN_CANDIDATES nearest input points, or 0
-                               (unknown): the search's first box */
 } wpd_even_limits;
 
 /* Input points a sample may move onto: the nearest within its reach. At

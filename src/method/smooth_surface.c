@@ -33,19 +33,7 @@ void wpd_surface_memo_fill(wpd_surface_memo *memo, const double at[3], const dou
     memcpy(memo->at, at, sizeof memo->at);
     memo->d0 = sqrt(d2[0]);
     memo->m6 = sum / SPACING_K;
-    memo->r7 = got > SPACING_K ? nextafterf((float)sqrt(d2[SPACING_K]), INFINITY) : 0;
-    memo->r8 = got > SPACING_K + 1 ? nextafterf((float)sqrt(d2[SPACING_K + 1]), INFINITY) : 0;
     memo->valid = 1;
-}
-
-double wpd_surface_memo_reach(const wpd_surface_memo *memo, const double p[3], int k)
-{
-    double rk = !memo || !memo->valid ? 0 : k == SPACING_K + 1 ? (double)memo->r7
-                                          : k == SPACING_K + 2 ? (double)memo->r8 : 0;
-    if (rk <= 0)
-        return 0;
-    double dx = p[0] - memo->at[0], dy = p[1] - memo->at[1], dz = p[2] - memo->at[2];
-    return (rk + sqrt(dx * dx + dy * dy + dz * dz)) * (1 + 1e-9);
 }
 
 /* Input point nearest to p (its slot in *near) and, in *spacing, the
@@ -65,8 +53,7 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
     uint32_t nb[SPACING_K + 1];
     double d2[SPACING_K + 1];
     *spacing = 0;
-    int got = wpd_knn_slots(surface, p, SPACING_K + 1, WPD_NO_SELF, INFINITY,
-                            wpd_surface_memo_reach(memo, p, SPACING_K + 1), nb, d2);
+    int got = wpd_knn_slots(surface, p, SPACING_K + 1, WPD_NO_SELF, INFINITY, 0, nb, d2);
     if (got < 1)
         return -1;
     *near = nb[0];
@@ -82,11 +69,8 @@ static double nearest_with_spacing(const wpd_grid *surface, const double p[3], u
             return d0;
         }
     }
-    /* q's 6 nearest others are among p's 7 nearest or nearer: within
-     * d0 + the 7th distance of q. */
     const double *q = surface->xyz + 3 * (size_t)*near;
-    double reach = got == SPACING_K + 1 ? (d0 + sqrt(d2[SPACING_K])) * (1 + 1e-9) : 0;
-    got = wpd_knn_slots(surface, q, SPACING_K, surface->id[*near], INFINITY, reach, nb, d2);
+    got = wpd_knn_slots(surface, q, SPACING_K, surface->id[*near], INFINITY, 0, nb, d2);
     double sum = 0;
     for (int j = 0; j < got; j++)
         sum += sqrt(d2[j]);

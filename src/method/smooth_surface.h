@@ -42,10 +42,6 @@ int wpd_off_surface(const wpd_grid *surface, const double start[3], double spaci
 typedef struct wpd_surface_memo {
     double at[3];
     double d0, m6;
-    float r7, r8;  /* distances from `at` to its 7th and 8th nearest input
-                      points, rounded up (0: the query found fewer): a point
-                      e from `at` has its 7 (8) nearest within r7 + e
-                      (r8 + e), a search's first box (core/knn.h, hint) */
     int valid;
 } wpd_surface_memo;
 
@@ -55,11 +51,6 @@ typedef struct wpd_surface_memo {
  * it was. */
 void wpd_surface_memo_fill(wpd_surface_memo *memo, const double at[3], const double *d2,
                            int got);
-
-/* A distance within which a point p has its k (7 or 8) nearest input
- * points, from the memo (rk + |at p|, a little more for rounding), or 0
- * when the memo cannot tell: the hint of a search for them. */
-double wpd_surface_memo_reach(const wpd_surface_memo *memo, const double p[3], int k);
 
 /* Moves p, rounded to the output's lattice, until it is within the input's
  * local spacing of its nearest input point (pulled straight towards that

@@ -22,7 +22,7 @@ size_t wpd_budget_tile_point_bytes(double sample_fraction, int sharp)
      * sample, as a candidate ~90 with its border and view). The larger of
      * the two makes the peak nearly flat in n: about 220 MB under --mem
      * 512M on 2 threads from 1 % to 50 %, where 128 + 360 f gave 234, 185
-     * and 216 MB. Each sample's memo of the input around it (56 bytes,
+     * and 216 MB. Each sample's memo of the input around it (48 bytes,
      * smooth_surface.h) came later and fits in that margin: 37 f a point,
      * NC 7 x 7 to 50 % peaking at 287 MB against 270 without it. So do the
      * exact count's nearest samples for smoothing (resample/hints.h): 8

@@ -378,7 +378,7 @@ TEST(holding_on_the_surface_gives_the_same_place_with_a_memo_as_without)
     uint64_t seed = 11;
     hold_tally t = {0};
     for (int walk = 0; walk < 200; walk++) {
-        wpd_surface_memo memo = {.valid = 0};
+        wpd_surface_memo memo = {{0, 0, 0}, 0, 0, 0};
         double p[3] = {10 + 40 * unit(&seed), 10 + 40 * unit(&seed), 0};
         for (int step = 0; step < 30; step++) {
             double len = step % 10 == 9 ? 3.0 : 0.15;
@@ -409,7 +409,7 @@ TEST(a_memo_filled_by_a_projection_query_spares_holds_without_changing_them)
         uint32_t nb[13];
         double d2[13];
         int got = wpd_knn_slots(&c.surface, p, 13, WPD_NO_SELF, INFINITY, 0, nb, d2);
-        wpd_surface_memo memo = {.valid = 0};
+        wpd_surface_memo memo = {{0, 0, 0}, 0, 0, 0};
         wpd_surface_memo_fill(&memo, p, d2, got);
         double q[3];
         for (int a = 0; a < 3; a++)

@@ -131,7 +131,7 @@ TEST(even_candidates_are_the_best_a_literal_sum_ranks)
             double start[3];
             for (int a = 0; a < 3; a++)
                 start[a] = pos[3 * o + a] + 0.3 * (unit(&seed) - 0.5);
-            wpd_even_limits lim = {reach, floor, start, 0.5, 0};
+            wpd_even_limits lim = {reach, floor, start, 0.5};
             uint32_t slot[WPD_EVEN_TRIES];
             int got = wpd_even_candidates(&v, &surface, o, &lim, slot);
             /* The literal sum for a position q. */
