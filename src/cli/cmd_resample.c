@@ -508,8 +508,8 @@ static int night_target(const resample_options *o, uint64_t count, uint64_t *tar
 }
 
 /* The report is written whatever is there (a cron job rewrites its report
- * every night), but never over an input or the output: refused before any
- * work, as an output that is an input is. */
+ * every night), but never over an input, an output or a collection's
+ * state: refused before any work, as an output that is an input is. */
 static int report_check(const resample_options *o, char *const *inputs, int ninputs,
                         wpd_error *err)
 {
@@ -517,9 +517,17 @@ static int report_check(const resample_options *o, char *const *inputs, int ninp
         return 0;
     if (wpd_path_is_one_of(o->report, inputs, ninputs))
         return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace an input", o->report);
-    char *const out[1] = {(char *)o->output};
-    if (o->output && (!strcmp(o->report, o->output) || wpd_path_is_one_of(o->report, out, 1)))
+    if (o->output && wpd_path_same_place(o->report, o->output))
         return wpd_fail(err, WPD_E_USAGE, "%s: the report and the output are one file",
+                        o->report);
+    char buf[1400];
+    for (int i = 0; o->per_input && i < ninputs; i++)
+        if (wpd_path_same_place(o->report, wpd_per_input_path(o->per_input, inputs[i], buf,
+                                                              sizeof buf)))
+            return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace the output of %s",
+                            o->report, inputs[i]);
+    if (o->coll && wpd_path_same_place(o->report, o->coll->c.state))
+        return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace the collection's state",
                         o->report);
     return 0;
 }

@@ -55,6 +55,8 @@ const char *const wpd_resample_usage =
     "      --threads T       OpenMP threads (default: all cores)\n"
     "      --mem SIZE        memory budget, e.g. 512M, 2G (default: a quarter of the\n"
     "                        physical memory, at most 4G); larger inputs are tiled\n"
+    "      --min-tiles N     through at least N tiles even where the cloud fits the\n"
+    "                        budget (with --no-smooth the same bytes as in memory)\n"
     "      --tmpdir DIR      where spill files go (default: $TMPDIR, else the\n"
     "                        output's directory)\n"
     "      --report FILE     write what the run did as JSON (docs/report.md)\n"

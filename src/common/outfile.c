@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <libgen.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -287,4 +288,27 @@ int wpd_path_is_one_of(const char *path, char *const *paths, int n)
         if (stat(paths[i], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
             return 1;
     return 0;
+}
+
+/* path's folder as a real path into dir (PATH_MAX), and its file name;
+ * NULL when the folder does not resolve. */
+static const char *folder_and_name(const char *path, char *dir)
+{
+    char copy[PATH_MAX];
+    if (snprintf(copy, sizeof copy, "%s", path) >= (int)sizeof copy)
+        return NULL;
+    const char *slash = strrchr(path, '/');
+    if (!realpath(dirname(copy), dir))
+        return NULL;
+    return slash ? slash + 1 : path;
+}
+
+int wpd_path_same_place(const char *a, const char *b)
+{
+    char *const other[1] = {(char *)b};
+    if (!strcmp(a, b) || wpd_path_is_one_of(a, other, 1))
+        return 1;
+    char da[PATH_MAX], db[PATH_MAX];
+    const char *na = folder_and_name(a, da), *nb = folder_and_name(b, db);
+    return na && nb && *na && !strcmp(na, nb) && !strcmp(da, db);
 }

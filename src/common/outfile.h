@@ -52,6 +52,11 @@ int wpd_outfile_sweep_stale(const char *path);
  * device and inode): writing it would destroy an input. */
 int wpd_path_is_one_of(const char *path, char *const *paths, int n);
 
+/* 1 if paths a and b name one file, whether it exists yet or not: the same
+ * device and inode, or the same file name in the same folder (folders
+ * compared as real paths; 0 where a folder does not resolve). */
+int wpd_path_same_place(const char *a, const char *b);
+
 /* Flushes to disk, closes and renames over the final path. On failure the
  * temporary file is removed. Returns 0 or -1. */
 int wpd_outfile_commit(wpd_outfile *f, wpd_error *err);

@@ -147,6 +147,23 @@ def test_the_report_never_replaces_an_input_or_the_output():
         assert json.load(f)["output_points"] == 100
 
 
+def test_the_report_never_replaces_a_per_input_output_or_the_collection_state():
+    shutil.copy(data("las", "pdal_simple.las"), "in.las")
+    os.mkdir("thin")
+    for report, says in ((os.path.join("thin", "in.las"), "would replace the output of in.las"),
+                         ("./thin/../thin/in.las", "would replace the output of in.las"),
+                         (os.path.join("thin", ".wpd-collection"), "collection's state")):
+        p = wpd("resample", "in.las", "--per-input", "thin", "-n", 100, "--report", report,
+                check=False)
+        assert p.returncode == 1 and says in p.stderr, (report, p.stderr)
+        assert len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert sorted(os.listdir("thin")) == [], os.listdir("thin")
+    wpd("resample", "in.las", "--per-input", "thin", "-n", 100, "--report", "run.json")
+    with open("run.json") as f:
+        assert json.load(f)["output_points"] == 100
+    assert read_las(os.path.join("thin", "in.las"))["count"] == 100
+
+
 def test_lock_keeps_two_runs_apart():
     src = data("las", "pdal_simple.las")
     with open(".out.las.wpd-lock", "w") as held:

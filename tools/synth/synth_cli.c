@@ -46,7 +46,7 @@ static void usage(FILE *f)
             "  --help       this text\n"
             "\n"
             "exit status: 0 success, 1 usage error (also: OUT exists, no --force),\n"
-            "2 bad value, 3 I/O error.\n",
+            "2 bad value, 3 I/O error, 4 out of memory.\n",
             WPD_SYNTH_MAX_TILES);
 }
 
