@@ -508,8 +508,10 @@ static int night_target(const resample_options *o, uint64_t count, uint64_t *tar
 }
 
 /* The report is written whatever is there (a cron job rewrites its report
- * every night), but never over an input, an output or a collection's
- * state: refused before any work, as an output that is an input is. */
+ * every night), but never over an input, an output or a file a collection
+ * keeps: refused before any work, as an output that is an input is (a
+ * collection's after its state is read: it records earlier nights'
+ * outputs). */
 static int report_check(const resample_options *o, char *const *inputs, int ninputs,
                         wpd_error *err)
 {
@@ -520,15 +522,15 @@ static int report_check(const resample_options *o, char *const *inputs, int ninp
     if (o->output && wpd_path_same_place(o->report, o->output))
         return wpd_fail(err, WPD_E_USAGE, "%s: the report and the output are one file",
                         o->report);
-    char buf[1400];
+    char buf[WPD_PATH_BYTES];
     for (int i = 0; o->per_input && i < ninputs; i++)
         if (wpd_path_same_place(o->report, wpd_per_input_path(o->per_input, inputs[i], buf,
                                                               sizeof buf)))
             return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace the output of %s",
                             o->report, inputs[i]);
-    if (o->coll && wpd_path_same_place(o->report, o->coll->c.state))
-        return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace the collection's state",
-                        o->report);
+    if (o->coll && o->coll->planned && wpd_cli_collection_owns(o->coll, o->report))
+        return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace a file the collection "
+                        "%s keeps", o->report, o->coll->c.label);
     return 0;
 }
 
@@ -543,6 +545,8 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
         return wpd_ranks_outcome(o->par, -1, err);
     if (o->coll) {
         int nnew = 0, rc = plan_night(inputs, ninputs, o, &nnew, err);
+        if (!rc && nnew > 0)
+            rc = report_check(o, inputs, ninputs, err);
         if (rc || nnew == 0)
             return wpd_ranks_outcome(o->par, rc, err);
         ninputs = nnew;

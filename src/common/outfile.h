@@ -53,8 +53,9 @@ int wpd_outfile_sweep_stale(const char *path);
 int wpd_path_is_one_of(const char *path, char *const *paths, int n);
 
 /* 1 if paths a and b name one file, whether it exists yet or not: the same
- * device and inode, or the same file name in the same folder (folders
- * compared as real paths; 0 where a folder does not resolve). */
+ * string, the same device and inode, or the same file name in the same
+ * folder (folders compared as real paths, names byte by byte; otherwise 0
+ * where a folder does not resolve). */
 int wpd_path_same_place(const char *a, const char *b);
 
 /* Flushes to disk, closes and renames over the final path. On failure the

@@ -10,8 +10,9 @@ typedef struct knn_heap {
     int k, cnt;
     uint32_t self;
     double max_d2;
-    double bound;   /* no point farther than this can enter: max_d2, or the
-                       k-th distance once full */
+    double bound;   /* no point farther than this can enter: max_d2 (or, in a
+                       hinted first box, the hint squared), or the k-th
+                       distance once full */
     double d2[WPD_KNN_MAX];
     uint32_t id[WPD_KNN_MAX];
     uint32_t slot[WPD_KNN_MAX];
@@ -132,10 +133,8 @@ static int scan_box(const wpd_grid *g, const double q[3], double rho, knn_heap *
  * within the box's half-width rho: every point outside the box is farther
  * than rho, so the answer is exact. A hint is the caller's guess of the
  * k-th distance, so the first box is scanned with the list's bound at
- * rho: its corners' points, farther than rho, then never enter the sorted
- * list (most of a search's cost: NC Raleigh's points, k = 13 at 1.05
- * times the k-th distance, 24 offers a search without the bound and 14
- * with it). When fewer than k lie within rho, the box is scanned again
+ * rho: the points in its corners, farther than rho, never enter the
+ * sorted list. When fewer than k lie within rho, the box is scanned again
  * without that bound, grown unless it held every point. */
 static int knn_search(const wpd_grid *g, const double q[3], int k, uint32_t self,
                       double max_dist, double hint, knn_heap *h)

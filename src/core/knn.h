@@ -29,8 +29,9 @@ static inline int wpd_knn_clamp_k(int k)
  * many were found: k unless fewer points qualify.
  * The search scans the cells of a box [q - rho, q + rho], growing rho until
  * the k-th distance is within rho, so it is always exact; hint (> 0) is the
- * first rho (a good guess of the k-th distance saves work), 0 means the
- * cell size. */
+ * first rho, 0 means the cell size. A hint at or a little above the k-th
+ * distance saves work (the first box is then the only one, and its points
+ * beyond the hint are never sorted in); one below it costs a second box. */
 int wpd_knn(const wpd_grid *g, const double q[3], int k, uint32_t self,
             double max_dist, double hint, uint32_t *idx, double *d2);
 

@@ -117,11 +117,21 @@ static int settle(const wpd_grid *g, gathered *near, const int64_t c[3], int own
     return wpd_block_holds(g, c, p, d2[k - 1]);
 }
 
+/* How many of the n nearest (d2 ascending) lie within max_dist, as
+ * wpd_knn's limit counts them (d2 <= max_dist^2). */
+static int within(const double *d2, int n, double max_dist)
+{
+    double lim = isinf(max_dist) ? INFINITY : max_dist * max_dist;
+    while (n > 0 && !(d2[n - 1] <= lim))
+        n--;
+    return n;
+}
+
 /* Answers the points of one cell (slots first..end-1) whose index is below
  * nq. */
-static size_t answer_cell(const wpd_grid *g, size_t nq, int k, const uint32_t *rows,
-                          uint32_t *idx, double *d2, uint8_t *count, uint32_t first,
-                          uint32_t end, gathered *near)
+static size_t answer_cell(const wpd_grid *g, size_t nq, int k, double max_dist,
+                          const uint32_t *rows, uint32_t *idx, double *d2, uint8_t *count,
+                          uint32_t first, uint32_t end, gathered *near)
 {
     size_t alone = 0;
     int64_t c[3];
@@ -139,17 +149,19 @@ static size_t answer_cell(const wpd_grid *g, size_t nq, int k, const uint32_t *r
         uint32_t *ri = idx + row * (size_t)k;
         double scratch[WPD_KNN_MAX], *rd = d2 ? d2 + row * (size_t)k : scratch;
         if (have && settle(g, near, c, near->own + (int)(s - first), k, &t, ri, rd)) {
-            count[row] = (uint8_t)k;
+            count[row] = (uint8_t)within(rd, k, max_dist);
             continue;
         }
-        count[row] = (uint8_t)wpd_knn(g, g->xyz + 3 * (size_t)s, k, i, INFINITY, g->cell, ri, rd);
+        count[row] = (uint8_t)wpd_knn(g, g->xyz + 3 * (size_t)s, k, i, max_dist,
+                                      g->cell < max_dist ? g->cell : max_dist, ri, rd);
         alone++;
     }
     return alone;
 }
 
-int wpd_knn_batch(const wpd_grid *g, size_t nq, int k, const uint32_t *rows, uint32_t *idx,
-                  double *d2, uint8_t *count, int threads, size_t *alone, wpd_error *err)
+int wpd_knn_batch(const wpd_grid *g, size_t nq, int k, double max_dist, const uint32_t *rows,
+                  uint32_t *idx, double *d2, uint8_t *count, int threads, size_t *alone,
+                  wpd_error *err)
 {
     int failed = 0;
     size_t searched = 0;
@@ -162,8 +174,8 @@ int wpd_knn_batch(const wpd_grid *g, size_t nq, int k, const uint32_t *rows, uin
 #pragma omp for schedule(dynamic, 64)
         for (size_t r = 0; r < g->nruns; r++)
             if (near)
-                searched += answer_cell(g, nq, k, rows, idx, d2, count, g->run_start[r],
-                                        g->run_start[r + 1], near);
+                searched += answer_cell(g, nq, k, max_dist, rows, idx, d2, count,
+                                        g->run_start[r], g->run_start[r + 1], near);
         free(near);
     }
     if (alone)

@@ -27,15 +27,19 @@
 #include "core/grid.h"
 
 /* For every point of g whose source index i is below nq: its k (1..
- * WPD_KNN_MAX) nearest other points, as wpd_knn(g, its coordinates, k, i,
- * INFINITY, ...) gives them, into idx[row * k ..] and d2[row * k ..] (d2
- * may be NULL) with row = rows ? rows[i] : i, and their number into
- * count[row]. The grid's cell should be about twice the typical k-th
- * distance (wpd_knn_median_kth): smaller cells send more points to the
- * search alone, larger ones gather more points per cell. threads <= 0:
- * OpenMP's default. *alone (may be NULL): how many points were searched
- * for alone. Returns 0, or -1 with err set (out of memory). */
-int wpd_knn_batch(const wpd_grid *g, size_t nq, int k, const uint32_t *rows, uint32_t *idx,
-                  double *d2, uint8_t *count, int threads, size_t *alone, wpd_error *err);
+ * WPD_KNN_MAX) nearest other points within max_dist (INFINITY: no limit),
+ * as wpd_knn(g, its coordinates, k, i, max_dist, ...) gives them, into
+ * idx[row * k ..] and d2[row * k ..] (d2 may be NULL) with row = rows ?
+ * rows[i] : i, and their number into count[row]. The grid's cell should be
+ * about twice the typical k-th distance (wpd_knn_median_kth): smaller
+ * cells send more points to the search alone, larger ones gather more
+ * points per cell. A point searched for alone looks no farther than
+ * max_dist (an isolated point would otherwise grow its search over the
+ * whole grid). threads <= 0: OpenMP's default. *alone (may be NULL): how
+ * many points were searched for alone. Returns 0, or -1 with err set (out
+ * of memory). */
+int wpd_knn_batch(const wpd_grid *g, size_t nq, int k, double max_dist, const uint32_t *rows,
+                  uint32_t *idx, double *d2, uint8_t *count, int threads, size_t *alone,
+                  wpd_error *err);
 
 #endif

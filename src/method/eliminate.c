@@ -428,15 +428,13 @@ void wpd_eliminate_nearest_all(const wpd_eliminate *e, double *nn)
     double *d2 = malloc(m * sizeof *d2);
     uint8_t *count = malloc(m);
     wpd_error ignored;
-    /* The batch gives wpd_knn's nearest without a limit; one beyond the
-     * reach is no answer, as wpd_knn's limit (d2 <= reach^2) has it. */
     if (idx && d2 && count &&
-        wpd_knn_batch(&e->grid, e->n, 1, NULL, idx, d2, count, e->threads, NULL, &ignored) == 0) {
-        double reach2 = e->reach * e->reach;
+        wpd_knn_batch(&e->grid, e->n, 1, e->reach, NULL, idx, d2, count, e->threads, NULL,
+                      &ignored) == 0) {
 #pragma omp parallel for num_threads(e->threads) schedule(static)
         for (size_t i = 0; i < e->live; i++) {
             uint32_t s = e->live_idx[i];
-            nn[s] = count[s] && d2[s] <= reach2 ? sqrt(d2[s]) : e->reach;
+            nn[s] = count[s] ? sqrt(d2[s]) : e->reach;
         }
     } else {
         /* Without memory for the batch, one search a sample: the same. */

@@ -217,7 +217,7 @@ static int build_frames(const wpd_smooth_input *in, frames *f, size_t *sharp_fix
     double dk = wpd_knn_median_kth(&g, f->k);
     if (dk > 0 && wpd_grid_build(&g, all, NULL, total, 2 * dk, threads, err) < 0)
         goto done;
-    if (wpd_knn_batch(&g, n, f->k, inv, f->nb, NULL, f->cnt, threads, NULL, err) < 0)
+    if (wpd_knn_batch(&g, n, f->k, INFINITY, inv, f->nb, NULL, f->cnt, threads, NULL, err) < 0)
         goto done;
     size_t nsharp = 0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : nsharp)

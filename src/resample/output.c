@@ -15,7 +15,7 @@ int wpd_output_check(char *const *inputs, int ninputs, const char *path, const c
 {
     struct stat st;
     for (int i = 0; i < (path ? 1 : ninputs); i++) {
-        char out[2048];
+        char out[WPD_PATH_BYTES];
         if (path)
             snprintf(out, sizeof out, "%s", path);
         else
@@ -28,7 +28,7 @@ int wpd_output_check(char *const *inputs, int ninputs, const char *path, const c
         /* Inputs of the same name in different folders: one output would
          * silently replace the other (outputs are renamed in together). */
         for (int j = 0; !path && j < i; j++) {
-            char other[2048];
+            char other[WPD_PATH_BYTES];
             wpd_per_input_path(outdir, inputs[j], other, sizeof other);
             if (!strcmp(out, other))
                 return wpd_fail(err, WPD_E_USAGE, "%s: inputs %s and %s would both write it",
@@ -42,7 +42,7 @@ int wpd_output_keep_stale(char **inputs, int n, const char *outdir)
 {
     int kept = 0;
     for (int i = 0; i < n; i++) {
-        char out[2048];
+        char out[WPD_PATH_BYTES];
         wpd_per_input_path(outdir, inputs[i], out, sizeof out);
         struct stat si, so;
         int fresh = stat(inputs[i], &si) == 0 && stat(out, &so) == 0 &&

@@ -87,7 +87,7 @@ int wpd_writing_open(wpd_writing *ws, int k, const char *path, const char *part,
 /* Opens output ws->done. */
 int wpd_writing_open_next(wpd_writing *ws, wpd_error *err)
 {
-    char buf[2048];
+    char buf[WPD_PATH_BYTES];
     const char *path = ws->target->path;
     if (!path)
         path = wpd_per_input_path(ws->target->outdir, wpd_writing_input(ws, ws->done)->path, buf,

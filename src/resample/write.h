@@ -109,7 +109,11 @@ int wpd_selection_write_shared(const wpd_selection *sel, wpd_cloud *cloud,
  * extension (".las": what a sweep of stale parts looks for). */
 const char *wpd_part_path(const char *tmpdir, const char *output, char *buf, size_t size);
 
-/* The --per-input output of input: "<outdir>/<input's file name>", in buf. */
+/* Room for an output's path: what wpd_per_input_path writes into. */
+#define WPD_PATH_BYTES 2048
+
+/* The --per-input output of input: "<outdir>/<input's file name>", in buf
+ * (WPD_PATH_BYTES of room). */
 const char *wpd_per_input_path(const char *outdir, const char *input, char *buf, size_t size);
 
 

@@ -99,7 +99,8 @@ TEST(knn_batch_matches_brute_force)
                 rows[i] = (uint32_t)(n - 1 - i);
             memset(count, 0xee, n);
             size_t alone = 0;
-            CHECK(wpd_knn_batch(&g, nq, k, rows, idx, d2, count, 2, &alone, &err) == 0);
+            CHECK(wpd_knn_batch(&g, nq, k, INFINITY, rows, idx, d2, count, 2, &alone, &err) ==
+                  0);
             int bad = 0;
             for (uint32_t i = 0; i < n; i++) {
                 size_t r = rows[i];
@@ -142,8 +143,8 @@ TEST(knn_batch_is_thread_independent)
     CHECK(wpd_grid_build(&g, xyz, NULL, n, 3, 2, &err) == 0);
     uint32_t *a = malloc(n * 13 * 4), *b = malloc(n * 13 * 4);
     uint8_t *ca = malloc(n), *cb = malloc(n);
-    CHECK(wpd_knn_batch(&g, n, 13, NULL, a, NULL, ca, 1, NULL, &err) == 0);
-    CHECK(wpd_knn_batch(&g, n, 13, NULL, b, NULL, cb, 2, NULL, &err) == 0);
+    CHECK(wpd_knn_batch(&g, n, 13, INFINITY, NULL, a, NULL, ca, 1, NULL, &err) == 0);
+    CHECK(wpd_knn_batch(&g, n, 13, INFINITY, NULL, b, NULL, cb, 2, NULL, &err) == 0);
     CHECK(memcmp(ca, cb, n) == 0 && memcmp(a, b, n * 13 * 4) == 0);
     free(a);
     free(b);
@@ -157,6 +158,49 @@ TEST(knn_batch_is_thread_independent)
  * copy of the query's index, and so must the batch. k is odd: the other
  * points come in pairs at equal distances, and an even k would end on a
  * tie, which the batch leaves to the search anyway. */
+/* With a limit the batch answers as wpd_knn with that limit: the points
+ * beyond it left out, fewer than k where fewer lie within it, none for an
+ * outlier (which a search alone would otherwise grow towards over the
+ * whole grid). */
+TEST(knn_batch_keeps_to_max_dist)
+{
+    const size_t n = 3000;
+    double *xyz = cloud(n, 21, 1);
+    wpd_grid g = {0};
+    wpd_error err;
+    CHECK(wpd_grid_build(&g, xyz, NULL, n, 1, 2, &err) == 0);
+    double dk = wpd_knn_median_kth(&g, 6);
+    CHECK(dk > 0);
+    CHECK(wpd_grid_build(&g, xyz, NULL, n, 2 * dk, 2, &err) == 0);
+    double limits[2] = {0.8 * dk, 0.3 * dk};
+    for (int l = 0; l < 2; l++) {
+        uint32_t *idx = malloc(n * 6 * sizeof *idx);
+        double *d2 = malloc(n * 6 * sizeof *d2);
+        uint8_t *count = malloc(n);
+        CHECK(wpd_knn_batch(&g, n, 6, limits[l], NULL, idx, d2, count, 2, NULL, &err) == 0);
+        size_t bad = 0, short_of_k = 0, none = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t want[6];
+            double wd[6];
+            int got = wpd_knn(&g, xyz + 3 * (size_t)i, 6, i, limits[l], 0, want, wd);
+            int same = count[i] == got;
+            for (int j = 0; same && j < got; j++)
+                same = idx[i * 6 + (size_t)j] == want[j] && d2[i * 6 + (size_t)j] == wd[j];
+            bad += !same;
+            short_of_k += got < 6;
+            none += got == 0;
+        }
+        CHECK_MSG(bad == 0, "limit %g: %zu points differ from wpd_knn", limits[l], bad);
+        CHECK_MSG(short_of_k > 0 && none > 0, "limit %g: %zu short of k, %zu with none: the "
+                  "test tests less", limits[l], short_of_k, none);
+        free(idx);
+        free(d2);
+        free(count);
+    }
+    wpd_grid_free(&g);
+    free(xyz);
+}
+
 TEST(knn_batch_skips_every_copy_of_the_query)
 {
     enum { K = 5 };
@@ -172,7 +216,7 @@ TEST(knn_batch_skips_every_copy_of_the_query)
     uint32_t *idx = malloc(n * K * 4), want[K];
     uint8_t *count = malloc(n);
     double d2[K];
-    CHECK(wpd_knn_batch(&g, n, K, NULL, idx, NULL, count, 2, NULL, &err) == 0);
+    CHECK(wpd_knn_batch(&g, n, K, INFINITY, NULL, idx, NULL, count, 2, NULL, &err) == 0);
     int bad = 0;
     for (uint32_t i = 0; i < n; i++) {
         int got = wpd_knn(&g, xyz + 3 * (size_t)i, K, i, INFINITY, 0, want, d2);
