@@ -509,9 +509,9 @@ static int night_target(const resample_options *o, uint64_t count, uint64_t *tar
 
 /* The report is written whatever is there (a cron job rewrites its report
  * every night), but never over an input, an output or a file a collection
- * keeps: refused before any work, as an output that is an input is (a
- * collection's after its state is read: it records earlier nights'
- * outputs). */
+ * keeps: refused before any work, as an output that is an input is. The
+ * collection's files are checked once its state is read
+ * (report_keeps_off_collection): it records earlier nights' outputs. */
 static int report_check(const resample_options *o, char *const *inputs, int ninputs,
                         wpd_error *err)
 {
@@ -528,7 +528,12 @@ static int report_check(const resample_options *o, char *const *inputs, int ninp
                                                               sizeof buf)))
             return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace the output of %s",
                             o->report, inputs[i]);
-    if (o->coll && o->coll->planned && wpd_cli_collection_owns(o->coll, o->report))
+    return 0;
+}
+
+static int report_keeps_off_collection(const resample_options *o, wpd_error *err)
+{
+    if (o->report && wpd_collection_owns(&o->coll->c, o->report))
         return wpd_fail(err, WPD_E_USAGE, "%s: the report would replace a file the collection "
                         "%s keeps", o->report, o->coll->c.label);
     return 0;
@@ -546,7 +551,7 @@ static int resample(char **inputs, int ninputs, resample_options *o, wpd_error *
     if (o->coll) {
         int nnew = 0, rc = plan_night(inputs, ninputs, o, &nnew, err);
         if (!rc && nnew > 0)
-            rc = report_check(o, inputs, ninputs, err);
+            rc = report_keeps_off_collection(o, err);
         if (rc || nnew == 0)
             return wpd_ranks_outcome(o->par, rc, err);
         ninputs = nnew;

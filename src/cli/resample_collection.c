@@ -9,7 +9,6 @@
 #include <sys/stat.h>
 
 #include "common/json.h"
-#include "common/outfile.h"
 #include "io/append.h"
 
 int wpd_cli_collection_init(wpd_cli_collection *cc, const char *outdir, const char *output,
@@ -55,25 +54,6 @@ int wpd_cli_collection_recover(wpd_cli_collection *cc, int quiet, wpd_error *err
     if (wpd_collection_mark(&cc->c, err))
         return -1;
     cc->marked = 1;
-    return 0;
-}
-
-int wpd_cli_collection_owns(const wpd_cli_collection *cc, const char *path)
-{
-    const wpd_collection *c = &cc->c;
-    char side[1500];
-    if (wpd_path_same_place(path, c->state))
-        return 1;
-    for (int k = 0; k < 2; k++) {
-        snprintf(side, sizeof side, "%s%s", c->state, k ? ".run" : ".new");
-        if (wpd_path_same_place(path, side))
-            return 1;
-    }
-    for (int i = 0; i < c->noutputs; i++) {
-        snprintf(side, sizeof side, "%s/%s", c->dir, c->outputs[i].name);
-        if (wpd_path_same_place(path, side))
-            return 1;
-    }
     return 0;
 }
 

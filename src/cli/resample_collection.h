@@ -31,11 +31,6 @@ int wpd_cli_collection_init(wpd_cli_collection *cc, const char *outdir, const ch
  * unless quiet) and marks this one. Returns 0, or -1 with err set. */
 int wpd_cli_collection_recover(wpd_cli_collection *cc, int quiet, wpd_error *err);
 
-/* 1 if path names a file the collection keeps: its state (or the state's
- * ".new" and ".run" files beside it) or an output its state records
- * (after wpd_cli_collection_plan), whether it exists yet or not. */
-int wpd_cli_collection_owns(const wpd_cli_collection *cc, const char *path);
-
 /* Every rank: plans the night (resample/collection.h); the new inputs are
  * then inputs[0 .. cc->night.nnew - 1]. Fails (WPD_E_USAGE) for an
  * --append output that exists without a state, unless overwrite.

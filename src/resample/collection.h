@@ -235,4 +235,9 @@ int wpd_collection_recover(wpd_collection *c, int *said, wpd_error *err);
 int wpd_collection_mark(const wpd_collection *c, wpd_error *err);
 void wpd_collection_unmark(const wpd_collection *c);
 
+/* 1 if path names a file the collection keeps, whether it exists yet or
+ * not: its state, the state's ".new" and ".run" files beside it, or an
+ * output the state records (after a load). */
+int wpd_collection_owns(const wpd_collection *c, const char *path);
+
 #endif

@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include "common/fullio.h"
+#include "common/outfile.h"
 #include "common/testhook.h"
 #include "common/tmpdir.h"
 
@@ -245,4 +246,21 @@ void wpd_collection_unmark(const wpd_collection *c)
     side_path(c, ".run", mark, sizeof mark);
     unlink(mark);
     wpd_tmpdir_untrack_file(mark);
+}
+
+int wpd_collection_owns(const wpd_collection *c, const char *path)
+{
+    static const char *const sides[] = {"", ".new", ".run"};
+    char file[1500];
+    for (int k = 0; k < 3; k++) {
+        side_path(c, sides[k], file, sizeof file);
+        if (wpd_path_same_place(path, file))
+            return 1;
+    }
+    for (int i = 0; i < c->noutputs; i++) {
+        snprintf(file, sizeof file, "%s/%s", c->dir, c->outputs[i].name);
+        if (wpd_path_same_place(path, file))
+            return 1;
+    }
+    return 0;
 }

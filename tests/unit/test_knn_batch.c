@@ -75,6 +75,18 @@ static int brute(const double *xyz, size_t n, uint32_t self, int k, uint32_t *id
     return cnt;
 }
 
+/* g over xyz with cells of twice the median k-th distance, as smoothing
+ * builds it (first built with cells of first_cell to measure it); returns
+ * that distance, 0 if the grid could not be built or measured. */
+static double knn_sized_grid(wpd_grid *g, const double *xyz, size_t n, int k, double first_cell)
+{
+    wpd_error err;
+    if (wpd_grid_build(g, xyz, NULL, n, first_cell, 2, &err))
+        return 0;
+    double dk = wpd_knn_median_kth(g, k);
+    return dk > 0 && wpd_grid_build(g, xyz, NULL, n, 2 * dk, 2, &err) == 0 ? dk : 0;
+}
+
 TEST(knn_batch_matches_brute_force)
 {
     const size_t n = 4000, nq = 3500;
@@ -87,10 +99,7 @@ TEST(knn_batch_matches_brute_force)
             double *xyz = cloud(n, 7 + (uint64_t)sc, scales[sc]);
             wpd_grid g = {0};
             wpd_error err;
-            CHECK(wpd_grid_build(&g, xyz, NULL, n, scales[sc], 2, &err) == 0);
-            double dk = wpd_knn_median_kth(&g, k);
-            CHECK(dk > 0);
-            CHECK(wpd_grid_build(&g, xyz, NULL, n, 2 * dk, 2, &err) == 0);
+            CHECK(knn_sized_grid(&g, xyz, n, k, scales[sc]) > 0);
             /* Rows in reverse: the answer lands where rows says. */
             uint32_t *rows = malloc(n * sizeof *rows), *idx = malloc(n * (size_t)k * 4);
             double *d2 = malloc(n * (size_t)k * sizeof *d2);
@@ -154,10 +163,6 @@ TEST(knn_batch_is_thread_independent)
     free(xyz);
 }
 
-/* A grid over a subset that names each point twice: wpd_knn skips every
- * copy of the query's index, and so must the batch. k is odd: the other
- * points come in pairs at equal distances, and an even k would end on a
- * tie, which the batch leaves to the search anyway. */
 /* With a limit the batch answers as wpd_knn with that limit: the points
  * beyond it left out, fewer than k where fewer lie within it, none for an
  * outlier (which a search alone would otherwise grow towards over the
@@ -168,10 +173,8 @@ TEST(knn_batch_keeps_to_max_dist)
     double *xyz = cloud(n, 21, 1);
     wpd_grid g = {0};
     wpd_error err;
-    CHECK(wpd_grid_build(&g, xyz, NULL, n, 1, 2, &err) == 0);
-    double dk = wpd_knn_median_kth(&g, 6);
+    double dk = knn_sized_grid(&g, xyz, n, 6, 1);
     CHECK(dk > 0);
-    CHECK(wpd_grid_build(&g, xyz, NULL, n, 2 * dk, 2, &err) == 0);
     double limits[2] = {0.8 * dk, 0.3 * dk};
     for (int l = 0; l < 2; l++) {
         uint32_t *idx = malloc(n * 6 * sizeof *idx);
@@ -201,6 +204,10 @@ TEST(knn_batch_keeps_to_max_dist)
     free(xyz);
 }
 
+/* A grid over a subset that names each point twice: wpd_knn skips every
+ * copy of the query's index, and so must the batch. k is odd: the other
+ * points come in pairs at equal distances, and an even k would end on a
+ * tie, which the batch leaves to the search anyway. */
 TEST(knn_batch_skips_every_copy_of_the_query)
 {
     enum { K = 5 };
