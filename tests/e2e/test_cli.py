@@ -159,9 +159,12 @@ def test_the_report_never_replaces_a_per_input_output_or_the_collection_state():
         assert len(p.stderr.strip().splitlines()) == 1, p.stderr
         assert sorted(os.listdir("thin")) == before, os.listdir("thin")
 
-    # This night's output, however the path is written; the state.
+    # This night's output, however the path is written (through a link to
+    # the folder too); the state.
+    os.symlink("thin", "alias")
     refused(["in.las"], os.path.join("thin", "in.las"), "would replace the output of in.las")
     refused(["in.las"], "./thin/../thin/in.las", "would replace the output of in.las")
+    refused(["in.las"], os.path.join("alias", "in.las"), "would replace the output of in.las")
     refused(["in.las"], os.path.join("thin", ".wpd-collection"), "the collection thin keeps")
     wpd("resample", "in.las", "--per-input", "thin", "-n", "10%", "--report", "run.json")
     with open("run.json") as f:
@@ -173,6 +176,7 @@ def test_the_report_never_replaces_a_per_input_output_or_the_collection_state():
     shutil.copy(data("las", "pdal_simple.las"), "in2.las")
     for report in ("in.las", ".wpd-collection", ".wpd-collection.run", ".wpd-collection.new"):
         refused(["in2.las"], os.path.join("thin", report), "the collection thin keeps")
+        refused(["in2.las"], os.path.join("alias", report), "the collection thin keeps")
     with open(os.path.join("thin", "in.las"), "rb") as f:
         assert f.read() == night1
 
