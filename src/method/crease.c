@@ -461,10 +461,20 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
     double tol = WPD_CREASE_FLATNESS * spacing;
     if (ev[0] > WPD_CREASE_MAX_VARIATION3 * total)
         return WPD_CREASE_ROUGH;
-    if (ev[0] > WPD_CREASE_MAX_VARIATION * total)
-        return three_faces(q, m, c, ax, NULL, tol, spacing);
     split_try tries[2];
     int k = split(q, m, c, ax, HOPELESS * tol * tol, tries, 0);
+    if (ev[0] > WPD_CREASE_MAX_VARIATION * total) {
+        /* No two faces here. Three only where a start leaves one side near
+         * a plane at its first fit; both sides of both starts hopeless is
+         * a volume. On NC Raleigh to 100 K with --sharp, 119,691 tests
+         * take this path and 115,412 of them end rough; the exit spares
+         * the Poisson pass 3-5 % of its time and changed 1 of 975 labels
+         * (on the oblique survey, seeds 1-10, the labels resample writes
+         * are the same, `wpd edges` one of 45,978). */
+        if (tries[0].gave_up && tries[1].gave_up)
+            return WPD_CREASE_ROUGH;
+        return three_faces(q, m, c, ax, tries, tol, spacing);
+    }
     if (k < 0)
         return three_faces(q, m, c, ax, tries, tol, spacing);
     const signed char *side = tries[k].side;

@@ -41,7 +41,10 @@
  * WPD_CREASE_MIN_FACE points or more and are planar, the point is on a
  * crease when it is on that of any two of them by the rules above (on
  * their points alone). Above WPD_CREASE_MAX_VARIATION3 the neighbourhood
- * is a volume (a crown, a cluster of returns), rejected before any split.
+ * is a volume (a crown, a cluster of returns), rejected before any split;
+ * between the two bounds it is one too when both starts of the two-face
+ * split leave both sides far from any plane at their first fit (a corner
+ * split leaves one side near a plane: a wall, or the roof).
  */
 #ifndef WPD_CREASE_H
 #define WPD_CREASE_H
