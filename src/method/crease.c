@@ -467,10 +467,11 @@ wpd_crease_verdict wpd_crease_test(const double *pts, int m, const double p[3], 
         /* No two faces here. Three only where a start leaves one side near
          * a plane at its first fit; both sides of both starts hopeless is
          * a volume. On NC Raleigh to 100 K with --sharp, 119,691 tests
-         * take this path and 115,412 of them end rough; the exit spares
-         * the Poisson pass 3-5 % of its time and changed 1 of 975 labels
-         * (on the oblique survey, seeds 1-10, the labels resample writes
-         * are the same, `wpd edges` one of 45,978). */
+         * take this path and the full three-face test finds 115,412 of
+         * them rough; leaving here spares the Poisson pass 3-10 % of its
+         * time and labels 1 of its 975 points otherwise (on the oblique
+         * survey, seeds 1-10: the labels resample writes alike, those of
+         * `wpd edges` but 1 of 45,978). */
         if (tries[0].gave_up && tries[1].gave_up)
             return WPD_CREASE_ROUGH;
         return three_faces(q, m, c, ax, tries, tol, spacing);
